@@ -1,0 +1,401 @@
+"""The ``rampwork`` command line: run, check, example, info.
+
+Every bad input (a ConfigError, an unreadable scene file) prints one line
+``rampwork: error: <message>`` to stderr and exits with status 2; usage errors
+exit 2 too; Ctrl-C exits 130.  Nothing is written for a refused run, and an
+existing output file is replaced only with ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from importlib import resources
+from pathlib import Path
+
+from ._version import __version__
+from .errors import ConfigError
+
+EXIT_OK = 0
+EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
+
+DESCRIPTION = """\
+rampwork: parameter studies of a point mass sliding with Coulomb friction on a
+ramp y = f(x).  A scene file (TOML) describes the ramp, friction, integrator,
+start values and a sweep (grid, cases or a random design); `rampwork run`
+integrates every trajectory with a compiled kernel and writes one netCDF file
+of per-trajectory results (status, end state, work against friction, energy
+balance, excess work beyond mu m g |dx|, convexity, reversals, lift-off)."""
+
+EPILOG = """\
+examples:
+  rampwork example                       list the example scenes
+  rampwork example bowl_reversals > bowl.toml
+  rampwork check bowl.toml               validate, count trajectories
+  rampwork run bowl.toml -o bowl.nc      simulate and write netCDF
+  rampwork run bowl.toml -o bowl.nc --overwrite --set integrator.dt=1e-4
+  rampwork info bowl.nc                  summarise a result file
+
+Run `rampwork COMMAND --help` for the options of each command."""
+
+SET_HELP = """\
+override one scene value before validation, as a dotted KEY and a TOML VALUE:
+e.g. integrator.dt=1e-4, friction.mu_k=0.2, t_max=5, contact=two_sided,
+'sweep.axes.mu=[0.1, 0.2]'.  Bare words are taken as strings.  Repeatable."""
+
+
+# ----------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _examples_dir():
+    return resources.files("rampwork").joinpath("examples")
+
+
+def example_names() -> list[str]:
+    """Names of the example scenes shipped with the package."""
+    return sorted(entry.name[:-5] for entry in _examples_dir().iterdir() if entry.name.endswith(".toml"))
+
+
+def example_text(name: str) -> str:
+    """The text of one shipped example scene (``name`` with or without ``.toml``)."""
+    stem = name[:-5] if name.endswith(".toml") else name
+    names = example_names()
+    if stem not in names:
+        raise ConfigError(f"example {name!r}", f"no such example; available: {', '.join(names)}")
+    return _examples_dir().joinpath(f"{stem}.toml").read_text(encoding="utf-8")
+
+
+def _title_of(text: str) -> str:
+    import tomllib
+
+    try:
+        return str(tomllib.loads(text).get("title", ""))
+    except tomllib.TOMLDecodeError:  # pragma: no cover - shipped examples parse
+        return ""
+
+
+def _format_seconds(seconds: float) -> str:
+    return f"{seconds * 1e3:.1f} ms" if seconds < 1 else f"{seconds:.2f} s"
+
+
+def _si(value: float) -> str:
+    for factor, prefix in ((1e9, " G"), (1e6, " M"), (1e3, " k")):
+        if abs(value) >= factor:
+            return f"{value / factor:.3g}{prefix}"
+    return f"{value:.3g}"
+
+
+def _sweep_shape(sweep) -> str:
+    if not sweep.axes:
+        return "single trajectory (no sweep axes)"
+    if sweep.kind == "cases":
+        return f"cases: {sweep.size} x ({', '.join(sweep.names)})"
+    return "grid: " + " x ".join(f"{name} {len(values)}" for name, values in sweep.axes)
+
+
+def _status_counts(status) -> dict[str, int]:
+    import numpy as np
+
+    from .core.status import STATUS_NAMES
+
+    values = np.asarray(status).ravel()
+    codes, counts = np.unique(values, return_counts=True)
+    return {STATUS_NAMES.get(int(code), f"code {int(code)}"): int(count) for code, count in zip(codes, counts)}
+
+
+def _format_counts(counts: dict[str, int]) -> str:
+    return ", ".join(f"{name} {count}" for name, count in counts.items()) or "(none)"
+
+
+def _load(path: str, overrides):
+    from .scenefile import load_scene
+
+    return load_scene(path, overrides or ())
+
+
+def _plan(path: str, scene, sweep):
+    """Every check the runner makes, before any work; errors name the file."""
+    from .runner import plan_run
+
+    try:
+        return plan_run(scene, sweep)
+    except ConfigError as error:
+        raise ConfigError(path, f"{error.where}: {error.problem}") from None
+
+
+def _warn_shadowed(overrides, sweep) -> None:
+    """--set of a value that a sweep axis replaces has no effect: say so."""
+    names = set(sweep.names)
+    for item in overrides or ():
+        key = item.partition("=")[0].strip()
+        if key in ("x0", "v0", "m", "g"):
+            axes = {key}
+        elif key in ("friction.mu_k", "friction.mu_s"):
+            axes = {"mu", key.split(".")[1]}
+        elif key.startswith("ramp."):
+            axes = {key[5:]}
+        else:
+            continue
+        for axis in sorted(axes & names):
+            print(f"rampwork: note: --set {key} has no effect: sweep axis {axis!r} replaces it",
+                  file=sys.stderr)
+
+
+class _Progress:
+    """``progress(done, total)`` for simulate: a line on stderr, rewritten."""
+
+    def __init__(self):
+        self.started = time.perf_counter()
+        self.last = 0.0
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        if done < total and now - self.last < 0.2:
+            return
+        self.last = now
+        print(f"\r  {done:,}/{total:,} trajectories ({100 * done / max(total, 1):.0f}%, "
+              f"{now - self.started:.1f} s elapsed)",
+              end="\n" if done >= total else "", file=sys.stderr, flush=True)
+
+
+# ----------------------------------------------------------------------------
+# commands
+# ----------------------------------------------------------------------------
+
+
+def cmd_run(args) -> int:
+    from . import io
+    from .runner import simulate
+
+    scene, sweep = _load(args.scene, args.set)
+    _warn_shadowed(args.set, sweep)
+    _plan(args.scene, scene, sweep)
+    if args.threads is not None:
+        import numba
+
+        if args.threads > numba.config.NUMBA_NUM_THREADS:
+            raise ConfigError("--threads", f"at most {numba.config.NUMBA_NUM_THREADS} on this machine "
+                              f"(NUMBA_NUM_THREADS), got {args.threads}")
+    output = io.check_writable(args.output, args.overwrite)
+    if not args.quiet:
+        print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
+              f"{scene.integrator.method} dt = {scene.integrator.dt!r} s", flush=True)
+    progress = _Progress() if (not args.quiet and sys.stderr.isatty()) else None
+    try:
+        dataset = simulate(scene, sweep, threads=args.threads, progress=progress)
+    except ConfigError as error:
+        if error.where == "threads":  # about the command line, not the scene
+            raise ConfigError("--threads", error.problem) from None
+        raise ConfigError(args.scene, f"{error.where}: {error.problem}") from None
+    io.write_netcdf(dataset, output, overwrite=args.overwrite)
+    if args.quiet:
+        return EXIT_OK
+    attrs = dataset.attrs
+    run_s = float(attrs.get("run_time_s", float("nan")))
+    compile_s = float(attrs.get("compile_time_s", float("nan")))
+    steps = attrs.get("trajectory_steps")
+    if steps is None and "steps" in dataset:
+        steps = int(dataset["steps"].sum())
+    rate = (f"{_si(steps / run_s)} trajectory-steps/s" if steps is not None and run_s > 0
+            else "trajectory-steps/s n/a")
+    n = int(attrs.get("n_trajectories", sweep.size))
+    print(f"trajectories  {n:,}")
+    print(f"compile time  {_format_seconds(compile_s)}")
+    print(f"run time      {_format_seconds(run_s)}  ({rate}"
+          + (f", {int(steps):,} steps" if steps is not None else "") + ")")
+    if "status" in dataset:
+        print(f"status        {_format_counts(_status_counts(dataset['status'].values))}")
+    print(f"wrote         {output}")
+    return EXIT_OK
+
+
+def cmd_check(args) -> int:
+    scene, sweep = _load(args.scene, args.set)
+    _warn_shadowed(args.set, sweep)
+    plan = _plan(args.scene, scene, sweep)
+    ramp = scene.ramp
+    params = ", ".join(f"{k} = {v!r}" for k, v in ramp.params)
+    steps = scene.t_max / scene.integrator.dt
+    print(f"{args.scene}: OK")
+    print(f"title         {scene.title}")
+    print(f"ramp          {ramp.family}" + (f" ({params})" if params else "")
+          + f" on [{ramp.domain[0]!r}, {ramp.domain[1]!r}] m")
+    print(f"friction      mu_k = {scene.friction.mu_k!r}, mu_s = {scene.friction.mu_s!r}; "
+          f"contact {scene.contact}")
+    print(f"integrator    {scene.integrator.method}, dt = {scene.integrator.dt!r} s, "
+          f"t_max = {scene.t_max!r} s (at most {steps:,.0f} steps per trajectory)")
+    dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
+    print(f"sweep         {_sweep_shape(sweep)}; {dims}")
+    print(f"trajectories  {plan.size:,}")
+    return EXIT_OK
+
+
+def cmd_example(args) -> int:
+    if args.name is None:
+        print("example scenes (print one with `rampwork example NAME > scene.toml`):")
+        names = example_names()
+        width = max(map(len, names), default=0)
+        for name in names:
+            print(f"  {name:<{width}}  {_title_of(example_text(name))}")
+        return EXIT_OK
+    sys.stdout.write(example_text(args.name))
+    sys.stdout.flush()
+    return EXIT_OK
+
+
+def cmd_info(args) -> int:
+    from . import io
+
+    dataset = io.open_dataset(args.dataset)
+    attrs = dataset.attrs
+    print(f"{args.dataset}")
+    for key in ("title", "source", "history"):
+        if key in attrs:
+            print(f"{key:<13} {attrs[key]}")
+    dims = ", ".join(f"{name} = {size}" for name, size in dataset.sizes.items())
+    print(f"{'dimensions':<13} {dims or '(none: one trajectory)'}")
+    if "n_trajectories" in attrs:
+        print(f"{'trajectories':<13} {int(attrs['n_trajectories']):,}")
+    timing = []
+    for key, label in (("compile_time_s", "compile"), ("run_time_s", "run"), ("trace_time_s", "trace")):
+        if key in attrs:
+            timing.append(f"{label} {_format_seconds(float(attrs[key]))}")
+    if timing:
+        print(f"{'timing':<13} {', '.join(timing)}"
+              + (f" on {int(attrs['threads'])} threads" if "threads" in attrs else ""))
+    if "status" in dataset:
+        print(f"{'status':<13} {_format_counts(_status_counts(dataset['status'].values))}")
+
+    def describe(title, names):
+        if not names:
+            return
+        print(f"{title}:")
+        width = max(len(str(name)) for name in names)
+        for name in names:
+            var = dataset[name]
+            units = var.attrs.get("units", "")
+            dims = f"({', '.join(map(str, var.dims))})" if var.dims else "()"
+            units = f"[{units}]" if units else ""
+            print(f"  {str(name):<{width}}  {dims:<18} {units:<8} {var.attrs.get('long_name', '')}".rstrip())
+
+    describe("coordinates", list(dataset.coords))
+    describe("variables", list(dataset.data_vars))
+    if not args.no_scene:
+        print("scene:")
+        for line in str(attrs.get("rampwork_scene", "")).rstrip("\n").splitlines():
+            print(f"  {line}" if line else "")
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------
+# the parser and main
+# ----------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    fmt = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(prog="rampwork", description=DESCRIPTION, epilog=EPILOG,
+                                     formatter_class=fmt)
+    parser.add_argument("--version", action="version", version=f"rampwork {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    commands.required = True
+
+    run = commands.add_parser(
+        "run", help="simulate a scene file and write the results to netCDF", formatter_class=fmt,
+        description="Load SCENE (TOML), check everything (including that OUTPUT can be written) "
+                    "before any work, run every trajectory of its sweep, write OUTPUT as "
+                    "compressed netCDF4 (atomically) and print a summary: trajectories, compile "
+                    "and run time, trajectory-steps per second, end statuses.")
+    run.add_argument("scene", metavar="SCENE.toml", help="scene file (see `rampwork example`)")
+    run.add_argument("-o", "--output", metavar="OUT.nc", required=True,
+                     help="netCDF file to write (required); its directory must exist")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace OUT.nc if it exists (default: refuse, exit status 2)")
+    run.add_argument("--threads", metavar="N", type=_positive_int, default=None,
+                     help="worker threads, 1 .. NUMBA_NUM_THREADS (default: all, "
+                          f"here {os.cpu_count() or '?'} cores)")
+    run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help=SET_HELP)
+    run.add_argument("-q", "--quiet", action="store_true",
+                     help="print nothing but errors (default: a summary on stdout, progress on a "
+                          "terminal's stderr)")
+    run.set_defaults(handler=cmd_run)
+
+    check = commands.add_parser(
+        "check", help="validate a scene file without running it", formatter_class=fmt,
+        description="Validate SCENE (every check `run` makes before starting, without compiling "
+                    "or running anything) and print the ramp, friction, integrator, the sweep's "
+                    "shape and the number of trajectories.  Exit status 0 if valid, 2 if not.")
+    check.add_argument("scene", metavar="SCENE.toml", help="scene file to validate")
+    check.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help=SET_HELP)
+    check.set_defaults(handler=cmd_check)
+
+    example = commands.add_parser(
+        "example", help="list the example scenes, or print one", formatter_class=fmt,
+        description="Without NAME: list the example scenes shipped with rampwork.  With NAME: "
+                    "print that scene file to stdout, e.g. `rampwork example straight > my.toml`.")
+    example.add_argument("name", metavar="NAME", nargs="?", default=None,
+                         help="example to print (with or without .toml; default: list them)")
+    example.set_defaults(handler=cmd_example)
+
+    info = commands.add_parser(
+        "info", help="summarise a rampwork netCDF file", formatter_class=fmt,
+        description="Print a rampwork result file's title, provenance, dimensions, coordinates "
+                    "and variables with their units, end-status counts, timing and the stored "
+                    "scene (a scene file that reproduces the run).")
+    info.add_argument("dataset", metavar="DATASET.nc", help="netCDF file written by `rampwork run`")
+    info.add_argument("--no-scene", action="store_true", help="do not print the stored scene "
+                      "(default: print it)")
+    info.set_defaults(handler=cmd_info)
+    return parser
+
+
+def _error(message: str) -> None:
+    print(f"rampwork: error: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line with ``argv`` (default: ``sys.argv[1:]``); returns
+    the exit status (0 ok, 2 bad input or usage, 130 interrupted)."""
+    parser = build_parser()
+    try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exit_:  # --help, --version, usage errors
+            code = exit_.code
+            return code if isinstance(code, int) else (0 if code is None else EXIT_ERROR)
+        return args.handler(args)
+    except ConfigError as error:
+        _error(error)
+        return EXIT_ERROR
+    except OSError as error:
+        if isinstance(error, BrokenPipeError):  # e.g. `rampwork example x | head`
+            try:
+                sys.stdout = open(os.devnull, "w")  # no second error at exit
+            except OSError:  # pragma: no cover
+                pass
+            return EXIT_OK
+        name = f"{error.filename}: " if getattr(error, "filename", None) else ""
+        _error(f"{name}{error.strerror or error}")
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        _error("interrupted")
+        return EXIT_INTERRUPTED
+
+
+if __name__ == "__main__":
+    sys.exit(main())

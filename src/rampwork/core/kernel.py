@@ -1,0 +1,600 @@
+"""The batch kernel: many trajectories in lock-step SIMD lanes, reduced on the fly.
+
+Why lanes: a loop that carries one trajectory at a time is bound by the latency
+of its divisions.  Here a tile of trajectories is run through a block of ``B``
+lanes stored as structure of arrays; the inner loop does one step for every
+lane with no data-dependent branch, so LLVM turns it into vector code.  A lane
+whose step contains an event (reversal or stop, lift-off, contact switch, exit,
+``t_max``, divergence) freezes at the start of that step and raises a flag; every
+``N_SUBSTEPS`` steps a scalar pass resolves the flagged lanes exactly (the event
+located inside the step by root finding on the step size, to rounding) and
+refills finished lanes with the next trajectory of the tile.
+
+Every trajectory sees the same sequence of floating-point operations whatever
+lane, tile, block size or thread runs it, so results are bit-for-bit
+independent of those choices.
+
+The functions here are templates: ``step``, ``ramp_height``,
+``ramp_slope_curvature``, ``ONE_SIDED`` and the helper names are globals bound
+per scene by :func:`build_kernel` through ``jit.specialise``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from . import status as st
+from .jit import specialise
+from .physics import departure_direction, normal_term, specific_energy
+from .steppers import STEPPERS
+
+# --- lane state: one flat float64 array, field F of lane i at F * LANES + i ----
+# T, XM, SM: time, position and step count at the start of the current mode
+# (time and path are derived from them, which keeps the hot loop lean);
+# LIMIT: step count at which t_max would be passed; BEFORE: step count at the
+# last scan (a lane that advanced less than N_SUBSTEPS has a pending event).
+(X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
+ STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0) = range(28)
+N_FIELDS = 28
+
+# --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
+IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)
+N_INPUTS = 9
+
+# --- per-trajectory outputs (per unit mass): rows of float64 (N_OUTPUTS, N) ----
+(OUT_STATUS, OUT_T, OUT_X, OUT_V, OUT_WORK, OUT_ENERGY_LOSS, OUT_PATH,
+ OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS) = range(11)
+N_OUTPUTS = 11
+
+# --- scalar settings: float64 array ---------------------------------------------
+SET_XLO, SET_XHI, SET_DT, SET_TMAX = range(4)
+N_SETTINGS = 4
+
+# --- event kinds ----------------------------------------------------------------
+EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOUT = range(7)
+
+#: steps between scalar passes over the lanes
+N_SUBSTEPS = 16
+#: samples of f over the domain used for the divergence speed bound
+N_RANGE_SAMPLES = 33
+#: divergence: speed above this multiple of the energy bound
+SPEED_BOUND_FACTOR = 10.0
+
+# bound per scene by build_kernel (compile-time constants)
+step = ramp_height = ramp_slope_curvature = None
+ONE_SIDED = True  # block on top of the ramp (lift-off) rather than a bead on a wire
+CHECK_CONTACT = True  # False where n > 0 is known in advance (f'' >= 0)
+CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-evaluate
+LANES = 64  # lanes per block
+(advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
+ run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
+ scan_lanes) = (None,) * 15
+
+
+# ------------------------------------------------------------------------------
+# vector part
+# ------------------------------------------------------------------------------
+def _advance_lanes(lanes, settings, shared, n_substeps):
+    """``n_substeps`` fixed steps on every lane.
+
+    Branch-free per lane so that it vectorises: the new state is committed only
+    where no event condition fired (a select, not a branch).  A lane whose step
+    raised an event keeps its step-start state, so it recomputes the same step
+    and stays frozen until the scalar pass resolves it; an empty lane has
+    D = 0 and never passes.  NaN makes every comparison false, so a non-finite
+    step freezes too.  Lane fields sit at compile-time-constant offsets
+    ``FIELD * LANES``, which lets the compiler prove that they do not overlap.
+    """
+    x_lo = settings[SET_XLO]
+    x_hi = settings[SET_XHI]
+    h = settings[SET_DT]
+    for _ in range(n_substeps):
+        for i in range(LANES):
+            x = lanes[X * LANES + i]
+            v = lanes[V * LANES + i]
+            d = lanes[D * LANES + i]
+            g = lanes[G * LANES + i]
+            p0 = lanes[P0 * LANES + i]
+            p1 = lanes[P1 * LANES + i]
+            p2 = lanes[P2 * LANES + i]
+            p3 = lanes[P3 * LANES + i]
+            steps = lanes[STEPS * LANES + i]
+            if CARRY_SLOPE:
+                fp = lanes[FP * LANES + i]
+                fpp = lanes[FPP * LANES + i]
+            else:
+                fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+            x1, v1, dw, _path, dk = step(x, v, fp, fpp, lanes[Q * LANES + i], d, h, g,
+                                         p0, p1, p2, p3, shared)
+            ok = ((d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
+                  & (steps < lanes[LIMIT * LANES + i]))
+            if CHECK_CONTACT or CARRY_SLOPE:
+                fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+            if CHECK_CONTACT:
+                ok = ok & (lanes[SN * LANES + i] * normal_term(v1, fpp1, g) > 0.0)
+            lanes[X * LANES + i] = x1 if ok else x
+            lanes[V * LANES + i] = v1 if ok else v
+            lanes[W * LANES + i] += dw if ok else 0.0
+            lanes[K * LANES + i] += dk if ok else 0.0
+            lanes[STEPS * LANES + i] = steps + 1.0 if ok else steps
+            if CARRY_SLOPE:
+                lanes[FP * LANES + i] = fp1 if ok else fp
+                lanes[FPP * LANES + i] = fpp1 if ok else fpp
+
+
+# ------------------------------------------------------------------------------
+# scalar part: events, loading and finishing lanes
+# ------------------------------------------------------------------------------
+def _current_time(lanes, i, h):
+    """t = time at mode start + (steps since) * h: no accumulated rounding."""
+    return lanes[T * LANES + i] + (lanes[STEPS * LANES + i] - lanes[SM * LANES + i]) * h
+
+
+def _rebase(lanes, i, t_now, settings):
+    """Start a new mode (after an event) at time t_now and the lane's current x:
+    bank the path travelled, reset the time base and the step limit."""
+    x = lanes[X * LANES + i]
+    lanes[S * LANES + i] += lanes[D * LANES + i] * (x - lanes[XM * LANES + i])
+    lanes[XM * LANES + i] = x
+    lanes[T * LANES + i] = t_now
+    lanes[SM * LANES + i] = lanes[STEPS * LANES + i]
+    remaining = math.floor((settings[SET_TMAX] - t_now) / settings[SET_DT])
+    lanes[LIMIT * LANES + i] = lanes[STEPS * LANES + i] + max(remaining, 0.0)
+
+
+def _apply_step(lanes, i, h, shared):
+    """One step of size h from lane i's state, committed (events only)."""
+    x1, v1, dw, _path, dk = step(
+        lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
+        lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i],
+        lanes[P0 * LANES + i], lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i],
+        shared)
+    lanes[X * LANES + i] = x1
+    lanes[V * LANES + i] = v1
+    lanes[W * LANES + i] += dw
+    lanes[K * LANES + i] += dk
+    lanes[STEPS * LANES + i] += 1.0
+
+
+def _event_value(kind, lanes, i, h, settings, shared):
+    """Event function ``kind`` after a trial step h from the lane's state:
+    > 0 before the event, <= 0 once it has happened.
+
+    EV_DIVERGED is +1 while the state is finite and within the speed bound
+    and -1 otherwise (it is located by bisection)."""
+    p0 = lanes[P0 * LANES + i]
+    p1 = lanes[P1 * LANES + i]
+    p2 = lanes[P2 * LANES + i]
+    p3 = lanes[P3 * LANES + i]
+    x1, v1, dw, _path, dk = step(
+        lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
+        lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i], p0, p1, p2, p3, shared)
+    if kind == EV_REVERSAL:
+        return lanes[D * LANES + i] * v1
+    if kind == EV_EXIT_HI:
+        return settings[SET_XHI] - x1
+    if kind == EV_EXIT_LO:
+        return x1 - settings[SET_XLO]
+    fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+    if kind == EV_CONTACT:
+        return lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
+    finite = (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(fp1)
+              and math.isfinite(fpp1) and math.isfinite(dw) and math.isfinite(dk))
+    if finite and v1 * v1 <= lanes[VLIM2 * LANES + i]:
+        return 1.0
+    return -1.0
+
+
+def _start_value(kind, lanes, i, settings):
+    """Event function at step size 0 (the step start), without a trial step."""
+    if kind == EV_REVERSAL:
+        return lanes[D * LANES + i] * lanes[V * LANES + i]
+    if kind == EV_EXIT_HI:
+        return settings[SET_XHI] - lanes[X * LANES + i]
+    if kind == EV_EXIT_LO:
+        return lanes[X * LANES + i] - settings[SET_XLO]
+    if kind == EV_CONTACT:
+        n = normal_term(lanes[V * LANES + i], lanes[FPP * LANES + i], lanes[G * LANES + i])
+        return lanes[SN * LANES + i] * n
+    return 1.0
+
+
+def _locate_event(kind, lanes, i, h_end, value_end, settings, shared):
+    """Smallest step size in (0, h_end] at which event ``kind`` has happened.
+
+    Illinois (modified regula falsi) on the step size: each evaluation is one
+    step of the scene's own method from the step start, so the event is found
+    to the method's accuracy and the root to rounding.  Returns the bracket end
+    on the event side, so the event condition holds exactly where it is applied.
+    """
+    a = 0.0
+    fa = start_value(kind, lanes, i, settings)
+    if not fa > 0.0:
+        return 0.0
+    b = h_end
+    fb = value_end
+    side = 0
+    for _ in range(200):
+        if kind == EV_DIVERGED or not math.isfinite(fb):
+            c = 0.5 * (a + b)
+        else:
+            c = (a * fb - b * fa) / (fb - fa)
+            if not (a < c < b):
+                c = 0.5 * (a + b)
+        if not (a < c < b):
+            break  # the bracket is down to adjacent floats
+        fc = event_value(kind, lanes, i, c, settings, shared)
+        if fc > 0.0:
+            a = c
+            fa = fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        else:
+            b = c
+            fb = fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+            if fc == 0.0:
+                break
+        if b - a <= 4.0e-16 * h_end:
+            break
+    return b
+
+
+def _finish_lane(lanes, i, status, x_lift, outputs, shared):
+    """Write lane i's trajectory to the outputs; the lane becomes empty."""
+    j = np.int64(lanes[TRAJ * LANES + i])
+    x = lanes[X * LANES + i]
+    v = lanes[V * LANES + i]
+    p0 = lanes[P0 * LANES + i]
+    p1 = lanes[P1 * LANES + i]
+    p2 = lanes[P2 * LANES + i]
+    p3 = lanes[P3 * LANES + i]
+    fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    f = ramp_height(x, p0, p1, p2, p3, shared)
+    energy_end = specific_energy(f, fp, v, lanes[G * LANES + i])
+    path = lanes[S * LANES + i] + lanes[D * LANES + i] * (x - lanes[XM * LANES + i])
+    outputs[OUT_STATUS, j] = status
+    outputs[OUT_T, j] = lanes[T * LANES + i]
+    outputs[OUT_X, j] = x
+    outputs[OUT_V, j] = v
+    outputs[OUT_WORK, j] = lanes[W * LANES + i]
+    outputs[OUT_ENERGY_LOSS, j] = lanes[E0 * LANES + i] - energy_end
+    outputs[OUT_PATH, j] = path
+    # mean f'' over the path; its limit f''(x0) where nothing was travelled
+    outputs[OUT_CONVEXITY, j] = lanes[K * LANES + i] / path if path > 0.0 else lanes[FPP0 * LANES + i]
+    outputs[OUT_NREV, j] = lanes[NREV * LANES + i]
+    outputs[OUT_XLIFT, j] = x_lift
+    outputs[OUT_STEPS, j] = lanes[STEPS * LANES + i]
+    make_empty(lanes, i)
+
+
+def _make_empty(lanes, i):
+    """Mark lane i empty: D = 0 fails d * v1 > 0, so it never steps."""
+    lanes[TRAJ * LANES + i] = -1.0
+    lanes[D * LANES + i] = 0.0
+    lanes[X * LANES + i] = 0.0
+    lanes[V * LANES + i] = 0.0
+
+
+def _set_mode(lanes, i, direction):
+    """Direction of motion and signed friction coefficient of the coming mode."""
+    lanes[D * LANES + i] = direction
+    lanes[Q * LANES + i] = direction * lanes[MUK * LANES + i] * lanes[SN * LANES + i]
+
+
+def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
+    """Start trajectory j in lane i.  Returns True if it is running, False if
+    it finished at t = 0 (stuck, exited or lifted off at the start)."""
+    x = inputs[IN_X0, j]
+    v = inputs[IN_V0, j]
+    g = inputs[IN_G, j]
+    p0 = inputs[IN_P0, j]
+    p1 = inputs[IN_P1, j]
+    p2 = inputs[IN_P2, j]
+    p3 = inputs[IN_P3, j]
+    x_lo = settings[SET_XLO]
+    x_hi = settings[SET_XHI]
+    fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    f = ramp_height(x, p0, p1, p2, p3, shared)
+    lanes[TRAJ * LANES + i] = j
+    lanes[X * LANES + i] = x
+    lanes[V * LANES + i] = v
+    lanes[FP * LANES + i] = fp
+    lanes[FPP * LANES + i] = fpp
+    lanes[FPP0 * LANES + i] = fpp
+    lanes[G * LANES + i] = g
+    lanes[P0 * LANES + i] = p0
+    lanes[P1 * LANES + i] = p1
+    lanes[P2 * LANES + i] = p2
+    lanes[P3 * LANES + i] = p3
+    lanes[MUK * LANES + i] = inputs[IN_MUK, j]
+    lanes[MUS * LANES + i] = inputs[IN_MUS, j]
+    lanes[W * LANES + i] = 0.0
+    lanes[S * LANES + i] = 0.0
+    lanes[K * LANES + i] = 0.0
+    lanes[STEPS * LANES + i] = 0.0
+    lanes[NREV * LANES + i] = 0.0
+    lanes[D * LANES + i] = 0.0
+    rebase(lanes, i, 0.0, settings)
+    lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
+    # divergence bound: the speed can never exceed what the energy allows
+    f_min = f
+    f_max = f
+    for k in range(N_RANGE_SAMPLES):
+        fs = ramp_height(x_lo + (x_hi - x_lo) * k / (N_RANGE_SAMPLES - 1), p0, p1, p2, p3, shared)
+        f_min = min(f_min, fs)
+        f_max = max(f_max, fs)
+    lanes[VLIM2 * LANES + i] = (SPEED_BOUND_FACTOR ** 2
+                                * (v * v * (1.0 + fp * fp) + 2.0 * g * (f_max - f_min)) + 1e-12)
+
+    n = normal_term(v, fpp, g)
+    lanes[SN * LANES + i] = 1.0 if (ONE_SIDED or n >= 0.0) else -1.0
+    if v == 0.0:
+        direction = departure_direction(fp, inputs[IN_MUS, j], inputs[IN_MUK, j], g)
+        if direction == 0.0:
+            finish_lane(lanes, i, st.STUCK, np.nan, outputs, shared)
+            return False
+    else:
+        direction = 1.0 if v > 0.0 else -1.0
+    if ONE_SIDED and n <= 0.0:
+        finish_lane(lanes, i, st.LIFTED_OFF, x, outputs, shared)
+        return False
+    if (x >= x_hi and direction > 0.0) or (x <= x_lo and direction < 0.0):
+        finish_lane(lanes, i, st.EXITED, np.nan, outputs, shared)
+        return False
+    set_mode(lanes, i, direction)
+    return True
+
+
+def _resolve_lane(lanes, i, settings, outputs, shared):
+    """Handle the step of lane i that raised an event.  Returns True if the
+    trajectory goes on (new mode), False if it finished."""
+    h = settings[SET_DT]
+    t_max = settings[SET_TMAX]
+    t_now = current_time(lanes, i, h)
+    if not CARRY_SLOPE:
+        # the vector loop re-evaluated f', f'' each step without storing them
+        fp, fpp = ramp_slope_curvature(lanes[X * LANES + i], lanes[P0 * LANES + i],
+                                       lanes[P1 * LANES + i], lanes[P2 * LANES + i],
+                                       lanes[P3 * LANES + i], shared)
+        lanes[FP * LANES + i] = fp
+        lanes[FPP * LANES + i] = fpp
+    # 1. the largest usable step: where the state stays finite and bounded
+    h_end = h
+    if event_value(EV_DIVERGED, lanes, i, h, settings, shared) <= 0.0:
+        h_end = locate_event(EV_DIVERGED, lanes, i, h, -1.0, settings, shared)
+        h_end = h_end * (1.0 - 1e-12)  # the first bad size; step back to a good one
+        while h_end > 0.0 and event_value(EV_DIVERGED, lanes, i, h_end, settings, shared) <= 0.0:
+            h_end *= 0.5
+    # 2. the earliest event within [0, h_end]
+    best_kind = EV_NONE
+    best_h = h_end
+    for kind in (EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL):
+        if h_end <= 0.0 or (kind == EV_CONTACT and not CHECK_CONTACT):
+            continue
+        value = event_value(kind, lanes, i, h_end, settings, shared)
+        if value <= 0.0:
+            h_k = locate_event(kind, lanes, i, h_end, value, settings, shared)
+            if best_kind == EV_NONE or h_k < best_h:
+                best_h = h_k
+                best_kind = kind
+    h_time = t_max - t_now
+    if h_time < best_h or (best_kind == EV_NONE and h_time <= h_end):
+        best_h = max(h_time, 0.0)
+        best_kind = EV_TIMEOUT
+    if best_kind == EV_NONE and h_end >= h:
+        # frozen only by the step limit, with a rounding's worth of time left
+        apply_step(lanes, i, h, shared)
+        rebase(lanes, i, t_now + h, settings)
+        if not CARRY_SLOPE:
+            return True
+        fp, fpp = ramp_slope_curvature(lanes[X * LANES + i], lanes[P0 * LANES + i],
+                                       lanes[P1 * LANES + i], lanes[P2 * LANES + i],
+                                       lanes[P3 * LANES + i], shared)
+        lanes[FP * LANES + i] = fp
+        lanes[FPP * LANES + i] = fpp
+        return True
+    if best_kind == EV_NONE:
+        # the state goes bad within this step and no event comes first
+        finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
+        return False
+
+    # 3. take the partial step to the event and apply the event
+    if best_h > 0.0:
+        apply_step(lanes, i, best_h, shared)
+    t_event = t_max if best_kind == EV_TIMEOUT else t_now + best_h
+    if best_kind == EV_EXIT_HI:
+        lanes[X * LANES + i] = settings[SET_XHI]
+    elif best_kind == EV_EXIT_LO:
+        lanes[X * LANES + i] = settings[SET_XLO]
+    rebase(lanes, i, t_event, settings)
+    if best_kind == EV_TIMEOUT:
+        finish_lane(lanes, i, st.TIMEOUT, np.nan, outputs, shared)
+        return False
+    if best_kind == EV_EXIT_HI or best_kind == EV_EXIT_LO:
+        finish_lane(lanes, i, st.EXITED, np.nan, outputs, shared)
+        return False
+    x = lanes[X * LANES + i]
+    fp, fpp = ramp_slope_curvature(x, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
+                                   lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+    lanes[FP * LANES + i] = fp
+    lanes[FPP * LANES + i] = fpp
+    if best_kind == EV_CONTACT:
+        if ONE_SIDED:
+            finish_lane(lanes, i, st.LIFTED_OFF, x, outputs, shared)
+            return False
+        # two-sided: the sign inside |n| flips and the motion goes on
+        lanes[SN * LANES + i] = -lanes[SN * LANES + i]
+        set_mode(lanes, i, lanes[D * LANES + i])
+        return True
+    # reversal: v reached 0 and the rest rule decides
+    lanes[V * LANES + i] = 0.0
+    lanes[SN * LANES + i] = 1.0  # at rest n = g > 0
+    direction = departure_direction(fp, lanes[MUS * LANES + i], lanes[MUK * LANES + i],
+                                    lanes[G * LANES + i])
+    if direction == 0.0:
+        finish_lane(lanes, i, st.STUCK, np.nan, outputs, shared)
+        return False
+    if direction != lanes[D * LANES + i]:
+        lanes[NREV * LANES + i] += 1.0
+    set_mode(lanes, i, direction)
+    return True
+
+
+def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
+    """Load trajectories into lane i until one runs; returns the next index."""
+    while next_j < stop:
+        j = next_j
+        next_j += 1
+        if load_lane(lanes, i, j, inputs, settings, outputs, shared):
+            break
+    return next_j
+
+
+def _scan_lanes(lanes, settings, outputs, shared, n_substeps):
+    """After ``n_substeps`` vector steps: resolve lanes with a pending event and
+    lanes past the speed bound.  Returns the lanes that need a new trajectory
+    as a count, having marked them empty."""
+    freed = 0
+    for i in range(LANES):
+        if lanes[TRAJ * LANES + i] < 0.0:
+            continue
+        pending = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i] < n_substeps
+        if not pending:
+            v = lanes[V * LANES + i]
+            if v * v <= lanes[VLIM2 * LANES + i]:
+                lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
+                continue
+            rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
+            finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
+            freed += 1
+            continue
+        if resolve_lane(lanes, i, settings, outputs, shared):
+            lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
+        else:
+            freed += 1
+    return freed
+
+
+def _run_tile(start, stop, inputs, settings, outputs, shared):
+    """Run trajectories start..stop-1 through one block of LANES lanes."""
+    lanes = np.zeros(N_FIELDS * LANES)
+    for i in range(LANES):
+        make_empty(lanes, i)
+    next_j = start
+    for i in range(LANES):
+        next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
+    while True:
+        for i in range(LANES):
+            lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
+        advance_lanes(lanes, settings, shared, N_SUBSTEPS)
+        freed = scan_lanes(lanes, settings, outputs, shared, N_SUBSTEPS)
+        if freed > 0 and next_j < stop:
+            for i in range(LANES):
+                if lanes[TRAJ * LANES + i] < 0.0:
+                    next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
+        running = False
+        for i in range(LANES):
+            if lanes[TRAJ * LANES + i] >= 0.0:
+                running = True
+                break
+        if not running:
+            break
+
+
+def _run_batch(inputs, settings, outputs, shared, tile_size):
+    """All trajectories (columns of ``inputs``), tiles spread over threads."""
+    n = inputs.shape[1]
+    n_tiles = (n + tile_size - 1) // tile_size
+    for tile in numba.prange(n_tiles):
+        start = tile * tile_size
+        stop = min(n, start + tile_size)
+        run_tile(start, stop, inputs, settings, outputs, shared)
+
+
+def _trace_one(j, inputs, settings, shared, every, trace):
+    """Run trajectory j alone (lane 0) and record (t, x, v, W) at the start,
+    every ``every`` steps and at every event, into ``trace`` (4, max_samples).
+    Returns the number of samples written."""
+    outputs = np.zeros((N_OUTPUTS, inputs.shape[1]))
+    lanes = np.zeros(N_FIELDS * LANES)
+    for i in range(LANES):
+        make_empty(lanes, i)
+    max_samples = trace.shape[1]
+    h = settings[SET_DT]
+    count = 0
+    running = load_lane(lanes, 0, j, inputs, settings, outputs, shared)
+    if max_samples > 0:
+        trace[0, 0] = 0.0
+        trace[1, 0] = inputs[IN_X0, j]
+        trace[2, 0] = inputs[IN_V0, j]
+        trace[3, 0] = 0.0
+        count = 1
+    while running:
+        lanes[BEFORE * LANES] = lanes[STEPS * LANES]
+        advance_lanes(lanes, settings, shared, 1)
+        event = lanes[STEPS * LANES] == lanes[BEFORE * LANES]
+        if event:
+            running = resolve_lane(lanes, 0, settings, outputs, shared)
+        if count < max_samples and (event or np.int64(lanes[STEPS * LANES]) % every == 0):
+            if running:
+                trace[0, count] = current_time(lanes, 0, h)
+                trace[1, count] = lanes[X * LANES]
+                trace[2, count] = lanes[V * LANES]
+                trace[3, count] = lanes[W * LANES]
+            else:
+                trace[0, count] = outputs[OUT_T, j]
+                trace[1, count] = outputs[OUT_X, j]
+                trace[2, count] = outputs[OUT_V, j]
+                trace[3, count] = outputs[OUT_WORK, j]
+            count += 1
+    return count
+
+
+def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
+                 one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
+                 lanes: int = 64, cache: bool = True):
+    """Compile (or load from numba's on-disk cache) the kernels for one scene.
+
+    ``name`` must identify the ramp functions uniquely (the family name for
+    built-in families).  Returns ``(run_batch, trace_one)``:
+    ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
+    ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n) in parallel;
+    ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
+    """
+    template, _order = STEPPERS[method]
+    flags = (("one" if one_sided else "two") + ("_contact" if check_contact else "")
+             + ("_carry" if carry_slope else ""))
+    variant = f"{name}_{method}_{flags}_{lanes}"
+    constants = {
+        "ramp_height": ramp_height_fn,
+        "ramp_slope_curvature": ramp_slope_curvature_fn,
+        "ONE_SIDED": one_sided,
+        "CHECK_CONTACT": check_contact,
+        "CARRY_SLOPE": carry_slope,
+        "LANES": lanes,
+    }
+
+    def add(key, function, **options):
+        constants[key] = specialise(function, f"{key}_{variant}", constants, cache=cache, **options)
+        return constants[key]
+
+    add("step", template)
+    for key, function in (
+        ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
+        ("set_mode", _set_mode), ("start_value", _start_value),
+        ("event_value", _event_value), ("locate_event", _locate_event),
+        ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),
+        ("resolve_lane", _resolve_lane), ("fill_lane", _fill_lane),
+        ("advance_lanes", _advance_lanes), ("scan_lanes", _scan_lanes), ("run_tile", _run_tile),
+    ):
+        add(key, function)
+    run_batch = add("run_batch", _run_batch, parallel=True)
+    trace_one = add("trace_one", _trace_one)
+    return run_batch, trace_one

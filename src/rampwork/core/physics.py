@@ -1,0 +1,49 @@
+"""Per-unit-mass physics of a particle on y = f(x) with Coulomb friction (DESIGN §1).
+
+State (x, v) with v = dx/dt.  Within a mode the direction ``d = sign(v)`` and
+the contact sign ``s_n = sign(n)`` are held fixed, and both enter only through
+``q = d * mu_k * s_n`` (the signed friction coefficient), so every right-hand
+side below is smooth up to the next event.
+"""
+
+from .jit import jit
+
+
+@jit
+def normal_term(v, fpp, g):
+    """n = g + v^2 f''; the normal force is m n / sqrt(1 + f'^2) (paper eq. 11)."""
+    return g + v * v * fpp
+
+
+@jit
+def acceleration(n, fp, q):
+    """dv/dt = -(f' n + d mu_k |n|) / (1 + f'^2), with |n| = s_n n and q = d mu_k s_n.
+
+    For n > 0 this is the paper's eq. (10)."""
+    return -n * (fp + q) / (1.0 + fp * fp)
+
+
+@jit
+def specific_energy(f, fp, v, g):
+    """Mechanical energy per unit mass: g f(x) + v^2 (1 + f'^2) / 2 (paper eq. 19)."""
+    return g * f + 0.5 * v * v * (1.0 + fp * fp)
+
+
+@jit
+def departure_direction(fp, mu_s, mu_k, g):
+    """The rest rule (DESIGN §1): at rest where the slope is f', the particle
+    stays for ever if |f'| <= mu_s (returns 0.0); otherwise it starts moving
+    downhill, direction -sign(f').
+
+    The second test catches |f'| within rounding of mu_k (possible only when
+    mu_s == mu_k): there the departing acceleration rounds to zero or the wrong
+    sign, so the particle cannot actually leave and is treated as stuck rather
+    than stepping in place.
+    """
+    if abs(fp) <= mu_s:
+        return 0.0
+    direction = -1.0 if fp > 0.0 else 1.0
+    # at rest n = g > 0, so s_n = +1 and q = d * mu_k
+    if acceleration(g, fp, direction * mu_k) * direction <= 0.0:
+        return 0.0
+    return direction

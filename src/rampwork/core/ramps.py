@@ -1,0 +1,322 @@
+"""Jitted ramp families: f(x), f'(x) and f''(x) from plain floats.
+
+Every family NAME has two functions with one fixed signature, which the batch
+kernel inlines into its SIMD lane loop:
+
+* ``NAME_height(x, p0, p1, p2, p3, shared) -> f(x)``
+* ``NAME_slope_curvature(x, p0, p1, p2, p3, shared) -> (f'(x), f''(x))``
+
+``p0..p3`` are the family's per-trajectory shape parameters in the order of
+:mod:`rampwork.ramps` (unused ones are 0.0); ``shared`` is a 1-D float64 array
+shared by all trajectories (only the spline reads it; never empty).
+
+Rules for code here: branch-light (simple ``a if c else b`` selects only), no
+data-dependent ``while`` loops, no exceptions, allocation or prints, no
+fastmath, so that a scalar call and an inlined vector loop agree to the last
+bit.  Outside a family's valid domain the result is NaN or a smooth
+extension; the Python layer refuses domains that reach a vertical tangent.
+
+Spline ``shared`` layout (n knots, built by :func:`rampwork.ramps.spline_shared`)::
+
+    shared[0]                 n (number of knots, >= 3), as a float
+    shared[1]                 k = ceil(log2(n - 1)): bisection steps, as a float
+    shared[2       : 2 + n]   x_i  knots, strictly increasing
+    shared[2 + n   : 2 + 2n]  y_i  values at the knots
+    shared[2 + 2n  : 2 + 3n]  m_i  second derivatives at the knots (m_0 = m_{n-1} = 0)
+
+Outside ``[x_0, x_{n-1}]`` the spline continues with its end intervals' cubics.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .jit import jit
+
+# ---------------------------------------------------------------------------
+# straight: y = height + slope * x            p0 = slope, p1 = height
+
+
+@jit
+def straight_height(x, p0, p1, p2, p3, shared):
+    return p1 + p0 * x
+
+
+@jit
+def straight_slope_curvature(x, p0, p1, p2, p3, shared):
+    return p0, 0.0
+
+
+# ---------------------------------------------------------------------------
+# quadratic: y = height + slope*x + curvature*x**2/2     p0 = curvature, p1 = slope, p2 = height
+
+
+@jit
+def quadratic_height(x, p0, p1, p2, p3, shared):
+    return p2 + x * (p1 + 0.5 * p0 * x)
+
+
+@jit
+def quadratic_slope_curvature(x, p0, p1, p2, p3, shared):
+    return p1 + p0 * x, p0
+
+
+# ---------------------------------------------------------------------------
+# circles: p0 = radius R, p1 = x_centre, p2 = y_centre; d = x - x_centre.
+# R^2 - d^2 is formed as (R - d)(R + d) with d = x - x_centre carried exactly
+# as d_hi + d_lo (Knuth's TwoSum): ~1 ulp right up to the tangent points.
+
+
+@jit
+def _circle_q(x, r, xc):
+    """(d, R^2 - d^2) with d = x - xc."""
+    d = x - xc
+    t = d - x
+    d_lo = (x - (d - t)) - (xc + t)
+    return d, ((r - d) - d_lo) * ((r + d) + d_lo)
+
+
+@jit
+def circular_bowl_height(x, p0, p1, p2, p3, shared):
+    d, q = _circle_q(x, p0, p1)
+    return p2 - math.sqrt(q)
+
+
+@jit
+def circular_bowl_slope_curvature(x, p0, p1, p2, p3, shared):
+    d, q = _circle_q(x, p0, p1)
+    s = math.sqrt(q)
+    return d / s, (p0 * p0) / (q * s)
+
+
+@jit
+def circular_dome_height(x, p0, p1, p2, p3, shared):
+    d, q = _circle_q(x, p0, p1)
+    return p2 + math.sqrt(q)
+
+
+@jit
+def circular_dome_slope_curvature(x, p0, p1, p2, p3, shared):
+    d, q = _circle_q(x, p0, p1)
+    s = math.sqrt(q)
+    return -d / s, -(p0 * p0) / (q * s)
+
+
+# ---------------------------------------------------------------------------
+# cycloid bowl: x = r (u + sin u), y = r (1 - cos u), -pi < u < pi; p0 = r.
+#
+# u(x) is found by Newton with a fixed iteration count.  With s = |x| / r:
+#   centre (s < pi/2 + 1, i.e. |u| < pi/2): solve z + sin z = s for z = |u|;
+#   ends   (s >= pi/2 + 1): solve w - sin w = t for w = pi - |u|, where
+#          t = (pi r - |x|) / r is formed to ~1 ulp (cycloid_cusp_gap), so the
+#          ends are as accurate as the centre although u(x) is ill-conditioned
+#          there (the error is not amplified by rounding of |x| / r).
+# Both are  F(z) = alpha*z + beta*S(z) - a = 0  with S(z) = z - sin z summed as
+# a series (no cancellation for small w), (alpha, beta) = (2, -1) at the centre
+# and (0, 1) at the ends, F'(z) = alpha + 2*beta*sin(z/2)**2.  Starting guesses
+# come from the series inverses (|u| ~ v + v^3/12 + v^5/60 with v = s/2; and
+# w ~ c (1 + c^2/60) with c = (6t)^(1/3), the cube-root law at the cusps), so the
+# fixed count converges to ~1 ulp of z over the whole open domain.
+
+PI_HI = math.pi
+PI_LO = 1.2246467991473532e-16  # pi - PI_HI
+PI_SPLIT_HI = 134217729.0 * PI_HI - (134217729.0 * PI_HI - PI_HI)  # PI_HI in two 26-bit halves
+PI_SPLIT_LO = PI_HI - PI_SPLIT_HI
+CYCLOID_SPLIT = 0.5 * math.pi + 1.0  # s where |u| = pi/2
+CYCLOID_NEWTON_STEPS = 5  # (4 reach ~1 ulp; one to spare) unrolled in _cycloid_half_angle
+
+# coefficients of (z - sin z) / z^3 as a series in z^2: (-1)^k / (2k+3)!
+_S0 = 1.0 / 6.0
+_S1 = -1.0 / 120.0
+_S2 = 1.0 / 5040.0
+_S3 = -1.0 / 362880.0
+_S4 = 1.0 / 39916800.0
+_S5 = -1.0 / 6227020800.0
+_S6 = 1.0 / 1307674368000.0
+_S7 = -1.0 / 355687428096000.0
+_S8 = 1.0 / 121645100408832000.0
+_S9 = -1.0 / 51090942171709440000.0
+_S10 = 1.0 / 25852016738884976640000.0
+
+
+@jit
+def _z_minus_sin_z(z):
+    """z - sin(z) without cancellation for |z| <~ 2 (relative error ~1 ulp)."""
+    z2 = z * z
+    p = _S10
+    p = p * z2 + _S9
+    p = p * z2 + _S8
+    p = p * z2 + _S7
+    p = p * z2 + _S6
+    p = p * z2 + _S5
+    p = p * z2 + _S4
+    p = p * z2 + _S3
+    p = p * z2 + _S2
+    p = p * z2 + _S1
+    p = p * z2 + _S0
+    return p * (z2 * z)
+
+
+@jit
+def cycloid_cusp_gap(ax, r):
+    """pi*r - ax for ax >= 0, accurate to ~1 ulp of the result near the cusp
+    (ax -> pi*r): pi*r is formed exactly as a double-double (Dekker's product,
+    no FMA needed) before the subtraction, which is then exact."""
+    p = PI_HI * r
+    c = 134217729.0 * r  # 2**27 + 1: Dekker's split of r
+    r_hi = c - (c - r)
+    r_lo = r - r_hi
+    err = ((PI_SPLIT_HI * r_hi - p) + PI_SPLIT_HI * r_lo + PI_SPLIT_LO * r_hi) + PI_SPLIT_LO * r_lo
+    return (p - ax) + (err + PI_LO * r)
+
+
+@jit
+def _cycloid_newton_step(z, a, alpha, beta):
+    sh = math.sin(0.5 * z)
+    return z - (alpha * z + beta * _z_minus_sin_z(z) - a) / (alpha + 2.0 * beta * sh * sh)
+
+
+@jit(inline="always")  # too big for LLVM's inliner: inline in numba's IR instead
+def _cycloid_half_angle(x, r):
+    """(sin(u/2), cos(u/2)) of the cycloid parameter u at x, for |u|; the caller
+    restores the sign of sin(u/2) from x."""
+    s = abs(x) / r
+    centre = s < CYCLOID_SPLIT
+    t = cycloid_cusp_gap(abs(x), r) / r
+    v = 0.5 * s
+    v2 = v * v
+    guess_centre = v * (1.0 + v2 * (1.0 / 12.0 + v2 * (1.0 / 60.0)))
+    c = (6.0 * t) ** (1.0 / 3.0)
+    guess_end = c * (1.0 + c * c * (1.0 / 60.0))
+    a = s if centre else t
+    alpha = 2.0 if centre else 0.0
+    beta = -1.0 if centre else 1.0
+    z = guess_centre if centre else guess_end
+    # CYCLOID_NEWTON_STEPS steps, unrolled by hand so that a lane loop around
+    # this stays an innermost loop (LLVM vectorises innermost loops only)
+    z = _cycloid_newton_step(z, a, alpha, beta)
+    z = _cycloid_newton_step(z, a, alpha, beta)
+    z = _cycloid_newton_step(z, a, alpha, beta)
+    z = _cycloid_newton_step(z, a, alpha, beta)
+    z = _cycloid_newton_step(z, a, alpha, beta)
+    sh = math.sin(0.5 * z)
+    ch = math.cos(0.5 * z)
+    # centre: z = |u|, so (sin, cos)(|u|/2) = (sh, ch); ends: z = pi - |u|, swapped
+    sin_half = sh if centre else ch
+    cos_half = ch if centre else sh
+    return sin_half, cos_half
+
+
+@jit(inline="always")
+def cycloid_height(x, p0, p1, p2, p3, shared):
+    sin_half, cos_half = _cycloid_half_angle(x, p0)
+    return 2.0 * p0 * sin_half * sin_half  # r (1 - cos u)
+
+
+@jit(inline="always")
+def cycloid_slope_curvature(x, p0, p1, p2, p3, shared):
+    sin_half, cos_half = _cycloid_half_angle(x, p0)
+    c2 = cos_half * cos_half
+    return math.copysign(sin_half / cos_half, x), 1.0 / (4.0 * p0 * (c2 * c2))
+
+
+@jit
+def cycloid_parameter(x, r):
+    """The cycloid parameter u(x) in (-pi, pi) (for tests and diagnostics)."""
+    sin_half, cos_half = _cycloid_half_angle(x, r)
+    return math.copysign(2.0 * math.atan2(sin_half, cos_half), x)
+
+
+# ---------------------------------------------------------------------------
+# sine on a slope: y = -slope*x + amplitude*sin(wavenumber*x + phase)
+# p0 = slope, p1 = amplitude, p2 = wavenumber, p3 = phase
+
+
+@jit
+def sine_height(x, p0, p1, p2, p3, shared):
+    return -p0 * x + p1 * math.sin(p2 * x + p3)
+
+
+@jit
+def sine_slope_curvature(x, p0, p1, p2, p3, shared):
+    theta = p2 * x + p3
+    return -p0 + p1 * p2 * math.cos(theta), -p1 * p2 * p2 * math.sin(theta)
+
+
+# ---------------------------------------------------------------------------
+# natural cubic spline, data in ``shared`` (layout in the module docstring)
+
+
+@jit
+def _spline_interval(x, shared):
+    """Index i of the interval [x_i, x_{i+1}] holding x, clamped to [0, n-2]:
+    a bisection with a fixed number of steps (shared[1])."""
+    n = int(shared[0])
+    steps = int(shared[1])
+    last = n - 2
+    i = 0
+    step = 1 << steps
+    for _ in range(steps):
+        step >>= 1
+        j = i + step
+        i = j if (j <= last and x >= shared[2 + min(j, last)]) else i
+    return i
+
+
+@jit
+def spline_height(x, p0, p1, p2, p3, shared):
+    n = int(shared[0])
+    i = _spline_interval(x, shared)
+    x0 = shared[2 + i]
+    x1 = shared[3 + i]
+    y0 = shared[2 + n + i]
+    y1 = shared[3 + n + i]
+    m0 = shared[2 + 2 * n + i]
+    m1 = shared[3 + 2 * n + i]
+    h = x1 - x0
+    a = (x1 - x) / h
+    b = (x - x0) / h
+    return a * y0 + b * y1 + ((a * a * a - a) * m0 + (b * b * b - b) * m1) * (h * h) * (1.0 / 6.0)
+
+
+@jit
+def spline_slope_curvature(x, p0, p1, p2, p3, shared):
+    n = int(shared[0])
+    i = _spline_interval(x, shared)
+    x0 = shared[2 + i]
+    x1 = shared[3 + i]
+    y0 = shared[2 + n + i]
+    y1 = shared[3 + n + i]
+    m0 = shared[2 + 2 * n + i]
+    m1 = shared[3 + 2 * n + i]
+    h = x1 - x0
+    a = (x1 - x) / h
+    b = (x - x0) / h
+    slope = (y1 - y0) / h + ((1.0 - 3.0 * a * a) * m0 + (3.0 * b * b - 1.0) * m1) * h * (1.0 / 6.0)
+    return slope, a * m0 + b * m1
+
+
+# ---------------------------------------------------------------------------
+# user callables: templates for ``specialise`` (USER_F, USER_FP, USER_FPP are
+# bound to the user's jitted functions there; they are not defined here).
+
+
+def callable_height_template(x, p0, p1, p2, p3, shared):
+    return float(USER_F(x))  # noqa: F821
+
+
+def callable_slope_curvature_template(x, p0, p1, p2, p3, shared):
+    return float(USER_FP(x)), float(USER_FPP(x))  # noqa: F821
+
+
+# ---------------------------------------------------------------------------
+# evaluation on an array: template for ``specialise`` (RAMP_HEIGHT and
+# RAMP_SLOPE_CURVATURE are bound to one family's functions).
+
+
+def evaluate_template(x, p0, p1, p2, p3, shared, f, fp, fpp):
+    for i in range(x.size):
+        f[i] = RAMP_HEIGHT(x[i], p0, p1, p2, p3, shared)  # noqa: F821
+        slope, curvature = RAMP_SLOPE_CURVATURE(x[i], p0, p1, p2, p3, shared)  # noqa: F821
+        fp[i] = slope
+        fpp[i] = curvature

@@ -1,0 +1,13 @@
+"""Errors raised for bad input before any work starts."""
+
+
+class ConfigError(ValueError):
+    """Bad input: says which parameter, what value, and what is allowed.
+
+    The CLI prints the message on one line and exits with status 2.
+    """
+
+    def __init__(self, where: str, problem: str):
+        self.where = where
+        self.problem = problem
+        super().__init__(f"{where}: {problem}")

@@ -1,0 +1,207 @@
+"""netCDF writing and reading of rampwork datasets.
+
+Files are netCDF4 (HDF5) written by xarray's ``netcdf4`` engine, every numeric
+variable zlib-compressed and chunked to about 1 MiB, written atomically (temp
+file in the same directory, fsync, ``os.replace``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rampwork import schema
+from rampwork.errors import ConfigError
+
+__all__ = ["write_netcdf", "open_dataset", "check_writable", "temp_path", "CHUNK_BYTES"]
+
+#: target size of one HDF5 chunk of a large variable
+CHUNK_BYTES = 1 << 20
+
+_ENGINE = "netcdf4"
+_FORMAT = "NETCDF4"
+
+
+def _one_line(text: Any) -> str:
+    return " ".join(str(text).split())
+
+
+def temp_path(path: str | os.PathLike) -> Path:
+    """The temporary file ``write_netcdf`` writes before renaming to ``path``."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
+def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
+    """Raise a one-line ConfigError unless ``path`` can be written.
+
+    Cheap enough to call before a long run: checks the parent directory
+    exists and is writable (by creating and removing a probe file), and that
+    ``path`` does not exist unless ``overwrite``. Returns ``path`` as a Path.
+    """
+    path = Path(path)
+    where = str(path)
+    if path.name in ("", ".", ".."):
+        raise ConfigError(where, "not a file name")
+    parent = path.parent
+    if not parent.exists():
+        raise ConfigError(where, f"directory {str(parent)!r} does not exist")
+    if not parent.is_dir():
+        raise ConfigError(where, f"{str(parent)!r} is not a directory")
+    if path.is_dir():
+        raise ConfigError(where, "is a directory")
+    if path.exists() and not overwrite:
+        raise ConfigError(where, "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(where, f"directory {str(parent)!r} is not writable")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.probe-", dir=parent)
+    except OSError as exc:
+        raise ConfigError(
+            where, f"directory {str(parent)!r} is not writable: {_one_line(exc.strerror or exc)}"
+        ) from None
+    os.close(fd)
+    os.unlink(probe)
+    return path
+
+
+def _chunksizes(shape: tuple[int, ...], itemsize: int) -> tuple[int, ...]:
+    """C-order chunks of about CHUNK_BYTES: shrink leading dimensions first."""
+    target = max(1, CHUNK_BYTES // max(1, itemsize))
+    chunks = list(shape)
+    for i in range(len(chunks)):
+        if math.prod(chunks) <= target:
+            break
+        rest = math.prod(chunks[i + 1 :])
+        chunks[i] = max(1, target // rest)
+    return tuple(int(c) for c in chunks)
+
+
+def _schema_fill(name: str) -> Any:
+    for table in (schema.OUTPUTS, schema.TRAJECTORY_RECORD):
+        if name in table:
+            return table[name].fill_value
+    return None
+
+
+def _encoding(var: xr.Variable, name: str, original: dict, complevel: int) -> dict:
+    """netCDF encoding of one variable (replaces whatever it carried)."""
+    enc: dict[str, Any] = {}
+    dtype = var.dtype
+    kind = dtype.kind
+    if kind not in "biufcMm":  # strings / objects: written as they are
+        return enc
+    if kind == "f":
+        enc["_FillValue"] = np.nan
+    elif kind in "iu":
+        fill = original.get("_FillValue", var.attrs.get("_FillValue", _schema_fill(name)))
+        enc["_FillValue"] = fill
+    elif kind == "b":
+        enc["_FillValue"] = None
+    if var.ndim == 0 or var.size == 0:
+        return enc
+    if complevel > 0:
+        enc["zlib"] = True
+        enc["complevel"] = complevel
+        enc["shuffle"] = True
+    itemsize = 8 if kind in "Mm" else dtype.itemsize
+    enc["chunksizes"] = _chunksizes(tuple(var.shape), itemsize)
+    return enc
+
+
+def _prepare(ds: xr.Dataset, complevel: int) -> tuple[xr.Dataset, dict]:
+    originals = {name: dict(ds.variables[name].encoding) for name in ds.variables}
+    out = ds.copy(deep=False).drop_encoding()
+    out.attrs = schema.netcdf_attrs(ds.attrs)
+    encoding = {}
+    for name in out.variables:
+        var = out.variables[name]
+        attrs = dict(var.attrs)
+        fill_attr = attrs.pop("_FillValue", None)
+        var.attrs = schema.netcdf_attrs(attrs)
+        if fill_attr is not None and var.dtype.kind in "iu":
+            originals[name].setdefault("_FillValue", fill_attr)
+        encoding[name] = _encoding(var, str(name), originals[name], complevel)
+    return out, encoding
+
+
+def write_netcdf(
+    ds: xr.Dataset,
+    path: str | os.PathLike,
+    *,
+    overwrite: bool = False,
+    compression_level: int = 4,
+) -> Path:
+    """Write ``ds`` to ``path`` as compressed netCDF4, atomically.
+
+    Floats get NaN as ``_FillValue``; integers get none unless their encoding,
+    a ``_FillValue`` attribute or the schema specifies one. Attributes are
+    flattened to netCDF-legal types (see :func:`schema.netcdf_attrs`).
+    Refuses to replace an existing file unless ``overwrite``. Returns ``path``.
+    """
+    if isinstance(compression_level, bool) or not isinstance(compression_level, (int, np.integer)) or not (
+        0 <= compression_level <= 9
+    ):
+        raise ConfigError("compression_level", f"{compression_level!r} is not an integer 0..9")
+    path = check_writable(path, overwrite)
+    prepared, encoding = _prepare(ds, int(compression_level))
+    tmp = temp_path(path)
+    try:
+        prepared.to_netcdf(tmp, mode="w", format=_FORMAT, engine=_ENGINE, encoding=encoding)
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        if not overwrite and path.exists():  # appeared while we were writing
+            raise ConfigError(str(path), "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    _fsync_dir(path.parent)
+    return path
+
+
+def _fsync_dir(directory: Path) -> None:
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def open_dataset(path: str | os.PathLike) -> xr.Dataset:
+    """Load a rampwork netCDF file into memory (the file is closed on return).
+
+    ``status`` stays int8 with its flag attributes. Raises ConfigError for a
+    missing file, a file netCDF cannot read, or one that is not a rampwork
+    dataset (no ``rampwork_scene`` global attribute).
+    """
+    path = Path(path)
+    where = str(path)
+    if not path.exists():
+        raise ConfigError(where, "no such file")
+    if path.is_dir():
+        raise ConfigError(where, "is a directory, not a netCDF file")
+    try:
+        ds = xr.load_dataset(path, engine=_ENGINE, decode_times=False, decode_timedelta=False)
+    except Exception as exc:  # noqa: BLE001 - any reader failure means "not readable"
+        raise ConfigError(where, f"cannot be read as netCDF: {_one_line(exc)}") from None
+    if "rampwork_scene" not in ds.attrs:
+        raise ConfigError(where, "not a rampwork dataset (no rampwork_scene attribute)")
+    return ds

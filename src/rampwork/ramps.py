@@ -1,0 +1,657 @@
+"""Ramp families and the validated :class:`Ramp` settings object.
+
+A *family* (:class:`RampFamily`, registered in :data:`FAMILIES`) is a shape
+y = f(x) with up to four named per-trajectory parameters (passed to the jitted
+core as ``p0..p3`` in the order of ``RampFamily.parameters``) and optionally
+data shared by all trajectories (the spline's knots, in ``shared``).  A
+:class:`Ramp` is one family with all its parameters filled in and a domain.
+
+    >>> ramp = Ramp.create("circular_bowl", radius=2.0, domain=(-1.5, 1.5))
+    >>> f, fp, fpp = ramp.evaluate([0.0, 1.0])
+
+User functions: :meth:`Ramp.from_functions` (family ``"callable"``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from . import validate
+from .core import ramps as core
+from .core.jit import jit, specialise
+from .errors import ConfigError
+
+__all__ = [
+    "FAMILIES",
+    "ParameterSpec",
+    "Ramp",
+    "RampFamily",
+    "circular_bowl",
+    "circular_dome",
+    "cycloid",
+    "from_functions",
+    "quadratic",
+    "sine",
+    "spline",
+    "spline_shared",
+    "straight",
+]
+
+CALLABLE = "callable"
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One per-trajectory shape parameter of a family."""
+
+    name: str
+    units: str  # UDUNITS spelling
+    long_name: str
+    constraint: str  # "finite" | "positive"
+    default: float | None  # None = required
+
+
+def _fmt(value) -> str:
+    return repr(float(value))
+
+
+def _at(values: np.ndarray, index: int) -> str:
+    return f" (value {index} of {values.size})" if values.size > 1 else ""
+
+
+def _real_array(where: str, values) -> np.ndarray:
+    """A non-empty 1-D float array of finite numbers (strings, bools refused)."""
+    array = np.asarray(values)
+    if array.dtype.kind not in "iuf":
+        raise ConfigError(where, f"expected finite numbers, got {values!r}")
+    array = array.astype(np.float64)
+    bad = ~np.isfinite(array)
+    if bad.any():
+        i = int(np.argmax(bad.ravel()))
+        raise ConfigError(where, f"must be finite numbers, got {_fmt(array.ravel()[i])}{_at(array, i)}")
+    return validate.real_array(where, array)  # shape checks
+
+
+def _check_domain(domain) -> tuple[float, float]:
+    """Two finite increasing numbers."""
+    where = "ramp.domain"
+    if isinstance(domain, (str, bytes)) or not hasattr(domain, "__len__") or len(domain) != 2:
+        raise ConfigError(where, f"expected two numbers [x_min, x_max], got {domain!r}")
+    lo = validate.real(where, domain[0])
+    hi = validate.real(where, domain[1])
+    if not lo < hi:
+        raise ConfigError(where, f"x_min must be < x_max, got [{lo!r}, {hi!r}]")
+    return lo, hi
+
+
+class RampFamily:
+    """A ramp shape: its parameters, jitted core functions and checks.
+
+    ``height`` and ``slope_curvature`` are the jitted core functions with the
+    signature ``(x, p0, p1, p2, p3, shared)``.  ``cacheable`` is False for user
+    callables (kernels built on them need ``cache=False``); ``key`` is a name
+    unique to this family object, usable in compiled kernels' names.
+    ``data_names`` are the non-swept inputs that build ``shared`` (spline).
+    """
+
+    def __init__(self, name: str, description: str, parameters: tuple[ParameterSpec, ...],
+                 height, slope_curvature, *, is_straight: bool = False,
+                 data_names: tuple[str, ...] = (), cacheable: bool = True, key: str | None = None):
+        if len(parameters) > 4:
+            raise ValueError("a ramp family has at most four parameters")
+        self.name = name
+        self.description = description
+        self.parameters = tuple(parameters)
+        self.height = height
+        self.slope_curvature = slope_curvature
+        self.is_straight = is_straight
+        self.data_names = tuple(data_names)
+        self.cacheable = cacheable
+        self.key = key or name
+        self._evaluator = None
+
+    def __repr__(self) -> str:
+        return f"<RampFamily {self.name}: {', '.join(p.name for p in self.parameters) or 'no parameters'}>"
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    # -- validation ---------------------------------------------------------
+
+    def _arrays(self, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        names = self.parameter_names
+        unknown = [k for k in values if k not in names]
+        if unknown:
+            raise ConfigError(f"ramp.{unknown[0]}", f"unknown parameter for ramp family {self.name!r}; "
+                              f"allowed: {', '.join(names) or '(none)'}")
+        arrays = {}
+        for spec in self.parameters:
+            where = f"ramp.{spec.name}"
+            if spec.name not in values:
+                raise ConfigError(where, f"required by ramp family {self.name!r}")
+            array = _real_array(where, values[spec.name])
+            if spec.constraint == "positive" and not (array > 0).all():
+                i = int(np.argmax(~(array > 0)))
+                raise ConfigError(where, f"must be > 0, got {_fmt(array[i])}{_at(array, i)}")
+            arrays[spec.name] = array
+        sizes = {a.size for a in arrays.values()} - {1}
+        if len(sizes) > 1:
+            raise ConfigError("ramp", f"parameter arrays differ in length: "
+                              f"{ {k: a.size for k, a in arrays.items()} }")
+        return arrays
+
+    def check_values(self, values: Mapping[str, np.ndarray], domain, shared=None) -> None:
+        """Raise :class:`ConfigError` unless every set of values is a valid ramp
+        on ``domain`` (names the parameter, the offending value and what is
+        allowed).  ``shared``: the spline's data (checked against the domain)."""
+        arrays = self._arrays(values)
+        lo, hi = _check_domain(domain)
+        self._check_family(arrays, lo, hi, shared)
+
+    def _check_family(self, arrays, lo, hi, shared) -> None:
+        pass
+
+    def pack(self, values: Mapping[str, np.ndarray], n: int | None = None):
+        """p0..p3 float64 arrays for the kernel (unused slots zeros of the same
+        length).  ``n`` gives the length for a family without parameters."""
+        arrays = [np.asarray(values[p.name], dtype=np.float64).ravel() for p in self.parameters]
+        if n is None:
+            if not arrays:
+                raise ValueError(f"ramp family {self.name!r} has no parameters: pass n")
+            n = max(a.size for a in arrays)
+        packed = [np.ascontiguousarray(np.broadcast_to(a, (n,)), dtype=np.float64) for a in arrays]
+        packed += [np.zeros(n) for _ in range(4 - len(packed))]
+        return tuple(packed)
+
+    def curvature_sign(self, values: Mapping[str, np.ndarray], domain, shared=None) -> int | None:
+        """+1 if f'' >= 0 on the whole domain for all values, -1 if <= 0, 0 if
+        f'' == 0 (straight), None if mixed or unknown."""
+        return None
+
+    # -- evaluation ---------------------------------------------------------
+
+    def evaluator(self):
+        """A jitted ``(x, p0, p1, p2, p3, shared, f, fp, fpp)`` loop over x."""
+        if self._evaluator is None:
+            self._evaluator = specialise(
+                core.evaluate_template, f"ramp_evaluate_{self.key}",
+                {"RAMP_HEIGHT": self.height, "RAMP_SLOPE_CURVATURE": self.slope_curvature},
+                **({} if self.cacheable else {"cache": False}))
+        return self._evaluator
+
+
+def _sign_of(curvatures_nonneg: bool, curvatures_nonpos: bool) -> int | None:
+    if curvatures_nonneg and curvatures_nonpos:
+        return 0
+    if curvatures_nonneg:
+        return 1
+    if curvatures_nonpos:
+        return -1
+    return None
+
+
+class _Straight(RampFamily):
+    def curvature_sign(self, values, domain, shared=None):
+        return 0
+
+
+class _Quadratic(RampFamily):
+    def curvature_sign(self, values, domain, shared=None):
+        k = np.asarray(values["curvature"], dtype=float)
+        return _sign_of(bool((k >= 0).all()), bool((k <= 0).all()))
+
+
+class _Circle(RampFamily):
+    def __init__(self, *args, sign: int, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._sign = sign
+
+    def _check_family(self, arrays, lo, hi, shared):
+        radius, xc = np.broadcast_arrays(arrays["radius"], arrays["x_centre"])
+
+        def inside(x):  # also by the core's own arithmetic: R^2 - d^2 > 0
+            d = x - xc
+            t = d - x
+            d_lo = (x - (d - t)) - (xc + t)
+            q = ((radius - d) - d_lo) * ((radius + d) + d_lo)
+            return (q > 0) & (x > xc - radius) & (x < xc + radius)
+
+        bad = ~(inside(lo) & inside(hi))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError(
+                "ramp.domain",
+                f"[{lo!r}, {hi!r}] reaches |x - x_centre| >= radius = {_fmt(radius[i])} (a vertical tangent); "
+                f"the domain must lie strictly inside ({_fmt(xc[i] - radius[i])}, {_fmt(xc[i] + radius[i])})"
+                + (f" for radius = {_fmt(radius[i])}, x_centre = {_fmt(xc[i])}{_at(radius, i)}" if radius.size > 1 else ""))
+
+    def curvature_sign(self, values, domain, shared=None):
+        return self._sign
+
+
+class _Cycloid(RampFamily):
+    def _check_family(self, arrays, lo, hi, shared):
+        r = arrays["radius"]
+        ax = max(abs(lo), abs(hi))
+        unique, inverse = np.unique(r, return_inverse=True)
+        # the core's own arithmetic for pi*r - |x| (> 0 strictly inside)
+        ok = np.array([ax < math.pi * ri and core.cycloid_cusp_gap(ax, float(ri)) > 0 for ri in unique])
+        bad = ~ok[inverse.ravel()]
+        if bad.any():
+            i = int(np.argmax(bad))
+            lim = _fmt(math.pi * r[i])
+            raise ConfigError(
+                "ramp.domain",
+                f"[{lo!r}, {hi!r}] reaches a cusp of the cycloid at |x| = pi*radius = {lim} with radius = "
+                f"{_fmt(r[i])}{_at(r, i)} (a vertical tangent); the domain must lie strictly inside "
+                f"(-{lim}, {lim})")
+
+    def curvature_sign(self, values, domain, shared=None):
+        return 1
+
+
+class _Sine(RampFamily):
+    def curvature_sign(self, values, domain, shared=None):
+        a = np.asarray(values["amplitude"], dtype=float)
+        k = np.asarray(values["wavenumber"], dtype=float)
+        if ((a == 0) | (k == 0)).all():
+            return 0
+        return None
+
+
+class _Spline(RampFamily):
+    def _check_family(self, arrays, lo, hi, shared):
+        if shared is None:
+            return
+        x_points, _, _ = spline_arrays(shared)
+        if lo < x_points[0] or hi > x_points[-1]:
+            raise ConfigError("ramp.domain", f"[{lo!r}, {hi!r}] must lie inside the spline's points "
+                              f"[{_fmt(x_points[0])}, {_fmt(x_points[-1])}]")
+
+    def curvature_sign(self, values, domain, shared=None):
+        if shared is None:
+            return None
+        x_points, _, m = spline_arrays(shared)
+        lo, hi = domain
+        # f'' is linear between knots: its extremes are at the knots inside the
+        # domain and at the domain's ends.
+        inner = m[(x_points > lo) & (x_points < hi)]
+        ends = np.array([_spline_fpp(shared, lo), _spline_fpp(shared, hi)])
+        fpp = np.concatenate([inner, ends])
+        return _sign_of(bool((fpp >= 0).all()), bool((fpp <= 0).all()))
+
+
+def _spline_fpp(shared, x: float) -> float:
+    return core.spline_slope_curvature(float(x), 0.0, 0.0, 0.0, 0.0, np.asarray(shared, dtype=np.float64))[1]
+
+
+class _Callable(RampFamily):
+    def __init__(self, *args, sign: int | None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._sign = sign
+
+    def curvature_sign(self, values, domain, shared=None):
+        return self._sign
+
+
+def _p(name, units, long_name, constraint="finite", default=None):
+    return ParameterSpec(name, units, long_name, constraint, default)
+
+
+def _circle_parameters(where: str) -> tuple[ParameterSpec, ...]:
+    return (_p("radius", "m", "radius of the circle", "positive"),
+            _p("x_centre", "m", "x of the centre of the circle", default=0.0),
+            _p("y_centre", "m", f"y of the centre of the circle ({where})", default=0.0))
+
+
+#: The registered families by name (user callables are not registered: see
+#: :meth:`Ramp.from_functions`).
+FAMILIES: dict[str, RampFamily] = {
+    family.name: family
+    for family in (
+        _Straight("straight", "straight ramp y = height + slope*x",
+                  (_p("slope", "1", "slope dy/dx of the ramp"),
+                   _p("height", "m", "height of the ramp at x = 0", default=0.0)),
+                  core.straight_height, core.straight_slope_curvature, is_straight=True),
+        _Quadratic("quadratic", "parabola y = height + slope*x + curvature*x**2/2",
+                   (_p("curvature", "m-1", "second derivative d2y/dx2 of the ramp"),
+                    _p("slope", "1", "slope dy/dx of the ramp at x = 0", default=0.0),
+                    _p("height", "m", "height of the ramp at x = 0", default=0.0)),
+                   core.quadratic_height, core.quadratic_slope_curvature),
+        _Circle("circular_bowl", "lower half circle y = y_centre - sqrt(radius**2 - (x - x_centre)**2)",
+                _circle_parameters("above the bowl"),
+                core.circular_bowl_height, core.circular_bowl_slope_curvature, sign=1),
+        _Circle("circular_dome", "upper half circle y = y_centre + sqrt(radius**2 - (x - x_centre)**2)",
+                _circle_parameters("below the dome"),
+                core.circular_dome_height, core.circular_dome_slope_curvature, sign=-1),
+        _Cycloid("cycloid", "cycloid bowl x = radius*(u + sin u), y = radius*(1 - cos u), -pi < u < pi",
+                 (_p("radius", "m", "radius of the cycloid's rolling circle", "positive"),),
+                 core.cycloid_height, core.cycloid_slope_curvature),
+        _Sine("sine", "sine on a slope y = -slope*x + amplitude*sin(wavenumber*x + phase)",
+              (_p("slope", "1", "mean downhill slope -dy/dx of the ramp", default=0.0),
+               _p("amplitude", "m", "amplitude of the sine"),
+               _p("wavenumber", "m-1", "angular wavenumber of the sine"),
+               _p("phase", "rad", "phase of the sine at x = 0", default=0.0)),
+              core.sine_height, core.sine_slope_curvature),
+        _Spline("spline", "natural cubic spline through given points (x_points, y_points)", (),
+                core.spline_height, core.spline_slope_curvature, data_names=("x_points", "y_points")),
+    )
+}
+
+
+# ---------------------------------------------------------------------------
+# spline data
+
+
+def spline_shared(x_points, y_points) -> tuple[float, ...]:
+    """Validate the points and build the spline's ``shared`` data (layout in
+    :mod:`rampwork.core.ramps`): natural end conditions, f'' = 0 at both ends."""
+    x = _real_array("ramp.x_points", x_points)
+    y = _real_array("ramp.y_points", y_points)
+    if x.size < 3:
+        raise ConfigError("ramp.x_points", f"a spline needs at least 3 points, got {x.size}")
+    if y.size != x.size:
+        raise ConfigError("ramp.y_points", f"must have as many values as x_points ({x.size}), got {y.size}")
+    steps = np.diff(x)
+    if not (steps > 0).all():
+        i = int(np.argmax(~(steps > 0)))
+        raise ConfigError("ramp.x_points", f"must be strictly increasing, got {_fmt(x[i])} then {_fmt(x[i + 1])} "
+                          f"at index {i}")
+    n = x.size
+    h = steps
+    # Tridiagonal system for the interior second derivatives m_1..m_{n-2}
+    # (Thomas algorithm; diagonally dominant, so no pivoting).
+    rhs = 6.0 * np.diff(np.diff(y) / h)
+    diag = 2.0 * (h[:-1] + h[1:])
+    off = h[1:-1]
+    k = n - 2
+    c = np.zeros(k)
+    d = np.zeros(k)
+    for i in range(k):
+        denom = diag[i] - (off[i - 1] * c[i - 1] if i > 0 else 0.0)
+        c[i] = off[i] / denom if i < k - 1 else 0.0
+        d[i] = (rhs[i] - (off[i - 1] * d[i - 1] if i > 0 else 0.0)) / denom
+    m = np.zeros(n)
+    for i in range(k - 1, -1, -1):
+        m[i + 1] = d[i] - (c[i] * m[i + 2] if i < k - 1 else 0.0)
+    steps_needed = int(math.ceil(math.log2(n - 1)))
+    while (1 << steps_needed) < n - 1:  # guard against log2 rounding
+        steps_needed += 1
+    return tuple(float(v) for v in np.concatenate([[n, steps_needed], x, y, m]))
+
+
+def spline_arrays(shared) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x_points, y_points, second derivatives) from a spline's ``shared``."""
+    shared = np.asarray(shared, dtype=np.float64)
+    n = int(shared[0])
+    return shared[2:2 + n], shared[2 + n:2 + 2 * n], shared[2 + 2 * n:2 + 3 * n]
+
+
+# ---------------------------------------------------------------------------
+# the settings object
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """One ramp: a family, all its parameters (defaults applied, in family
+    order), a domain, and the spline's data.  Build with :meth:`create` or
+    :meth:`from_functions`; construction validates."""
+
+    family: str
+    params: tuple[tuple[str, float], ...]
+    domain: tuple[float, float]
+    shared: tuple[float, ...] = ()
+    _callable: RampFamily | None = field(default=None, repr=False)
+
+    def __post_init__(self):
+        spec = self.spec
+        object.__setattr__(self, "domain", _check_domain(self.domain))
+        names = tuple(name for name, _ in self.params)
+        if names != spec.parameter_names:
+            raise ConfigError("ramp", f"parameters {names} do not match family {self.family!r}: "
+                              f"expected {spec.parameter_names}")
+        object.__setattr__(self, "params", tuple((name, float(value)) for name, value in self.params))
+        object.__setattr__(self, "shared", tuple(float(v) for v in self.shared))
+        if spec.data_names and not self.shared:
+            raise ConfigError("ramp", f"family {self.family!r} needs {', '.join(spec.data_names)}")
+        spec.check_values({name: np.array([value]) for name, value in self.params}, self.domain,
+                          self.shared or None)
+
+    # -- construction -------------------------------------------------------
+
+    @classmethod
+    def create(cls, family: str, domain=None, **params) -> "Ramp":
+        """A validated ramp of a registered family.  ``params``: the family's
+        parameters by name (defaults fill the rest); for ``"spline"``,
+        ``x_points`` and ``y_points`` (``domain`` defaults to their range)."""
+        if family == CALLABLE:
+            raise ConfigError("ramp.family", "callable ramps are built with Ramp.from_functions(f, fp, fpp, ...)")
+        if not isinstance(family, str) or family not in FAMILIES:
+            raise ConfigError("ramp.family", f"unknown ramp family {family!r}; allowed: "
+                              f"{', '.join(map(repr, FAMILIES))} (and user functions via Ramp.from_functions)")
+        spec = FAMILIES[family]
+        allowed = spec.parameter_names + spec.data_names
+        for name in params:
+            if name not in allowed:
+                raise ConfigError(f"ramp.{name}", f"unknown parameter for ramp family {family!r}; "
+                                  f"allowed: {', '.join(allowed)}, domain")
+        values = []
+        for p in spec.parameters:
+            where = f"ramp.{p.name}"
+            if p.name in params:
+                value = validate.real(where, params[p.name])
+            elif p.default is not None:
+                value = p.default
+            else:
+                raise ConfigError(where, f"required by ramp family {family!r} ({p.long_name}, {p.units})")
+            if p.constraint == "positive":
+                value = validate.positive(where, value)
+            values.append((p.name, value))
+        shared: tuple[float, ...] = ()
+        if spec.data_names:
+            for name in spec.data_names:
+                if name not in params:
+                    raise ConfigError(f"ramp.{name}", f"required by ramp family {family!r}")
+            shared = spline_shared(params["x_points"], params["y_points"])
+            if domain is None:
+                x_points, _, _ = spline_arrays(shared)
+                domain = (float(x_points[0]), float(x_points[-1]))
+        if domain is None:
+            raise ConfigError("ramp.domain", f"required for ramp family {family!r}: [x_min, x_max] in m")
+        return cls(family, tuple(values), _check_domain(domain), shared)
+
+    @classmethod
+    def from_functions(cls, f: Callable, fp: Callable, fpp: Callable, domain, curvature_sign=None,
+                       name: str = CALLABLE, check: bool = True) -> "Ramp":
+        """A ramp from user functions f(x), f'(x), f''(x) of one float (numba
+        ``njit``-ed, or plain Python that numba can compile).  ``curvature_sign``
+        declares the sign of f'' on the domain (+1, -1, 0 or None = unknown).
+        With ``check`` the functions are sampled on the domain: values must be
+        finite, fp and fpp must match finite differences of f and fp, and f''
+        must have the declared sign."""
+        where = "ramp.curvature_sign"
+        if curvature_sign is not None:
+            if isinstance(curvature_sign, bool) or curvature_sign not in (-1, 0, 1):
+                raise ConfigError(where, f"must be +1 (convex), -1 (concave), 0 (straight) or None (unknown), "
+                                  f"got {curvature_sign!r}")
+            curvature_sign = int(curvature_sign)
+        if not isinstance(name, str) or not name:
+            raise ConfigError("ramp.name", f"expected a non-empty string, got {name!r}")
+        domain = _check_domain(domain)
+        jitted = [_as_dispatcher(label, g) for label, g in (("f", f), ("fp", fp), ("fpp", fpp))]
+        key = f"callable_{next(_CALLABLE_COUNTER)}_{re.sub(r'[^0-9A-Za-z_]', '_', name)}"
+        height = specialise(core.callable_height_template, f"{key}_height",
+                            {"USER_F": jitted[0]}, cache=False)
+        slope_curvature = specialise(core.callable_slope_curvature_template, f"{key}_slope_curvature",
+                                     {"USER_FP": jitted[1], "USER_FPP": jitted[2]}, cache=False)
+        family = _Callable(name, f"user functions {name!r}", (), height, slope_curvature,
+                           is_straight=curvature_sign == 0, cacheable=False, key=key, sign=curvature_sign)
+        ramp = cls(CALLABLE, (), domain, (), family)
+        ramp._check_functions(curvature_sign, check)
+        return ramp
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> "Ramp":
+        """Inverse of :meth:`to_dict`."""
+        if not isinstance(data, Mapping) or "family" not in data:
+            raise ConfigError("ramp", f"expected a table with a 'family' key, got {data!r}")
+        return cls.create(**dict(data))
+
+    # -- views --------------------------------------------------------------
+
+    @property
+    def spec(self) -> RampFamily:
+        """The :class:`RampFamily` (for callable ramps, the one built for its functions)."""
+        if self.family == CALLABLE:
+            if self._callable is None:
+                raise ConfigError("ramp.family", "callable ramps are built with Ramp.from_functions")
+            return self._callable
+        if self.family not in FAMILIES:
+            raise ConfigError("ramp.family", f"unknown ramp family {self.family!r}; allowed: "
+                              f"{', '.join(map(repr, FAMILIES))}")
+        return FAMILIES[self.family]
+
+    @property
+    def is_straight(self) -> bool:
+        return self.spec.is_straight
+
+    def param_dict(self) -> dict[str, float]:
+        return dict(self.params)
+
+    def shared_array(self) -> np.ndarray:
+        """``shared`` as float64 (``np.zeros(1)`` when the family has none)."""
+        return np.array(self.shared, dtype=np.float64) if self.shared else np.zeros(1)
+
+    def packed(self) -> tuple[float, float, float, float]:
+        """p0..p3 as floats (zeros for unused slots)."""
+        values = [value for _, value in self.params]
+        return tuple(values + [0.0] * (4 - len(values)))
+
+    def curvature_sign(self) -> int | None:
+        """+1 if f'' >= 0 on the domain, -1 if <= 0, 0 if straight, None if mixed/unknown."""
+        return self.spec.curvature_sign({k: np.array([v]) for k, v in self.params}, self.domain,
+                                        self.shared or None)
+
+    def evaluate(self, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """f, f', f'' at the points ``x`` (any shape), by a jitted loop over the
+        same core functions the kernel inlines."""
+        x = np.asarray(x, dtype=np.float64)
+        flat = np.ascontiguousarray(x.ravel())
+        f = np.empty_like(flat)
+        fp = np.empty_like(flat)
+        fpp = np.empty_like(flat)
+        self.spec.evaluator()(flat, *self.packed(), self.shared_array(), f, fp, fpp)
+        return f.reshape(x.shape), fp.reshape(x.shape), fpp.reshape(x.shape)
+
+    def to_dict(self) -> dict:
+        """Plain data for TOML/JSON: ``{"family", "domain", <params>..., [x_points, y_points]}``;
+        ``Ramp.create(**ramp.to_dict())`` (or :meth:`from_dict`) rebuilds it."""
+        if self.family == CALLABLE:
+            raise ConfigError("ramp", "callable ramps cannot be serialised")
+        data = {"family": self.family, "domain": [self.domain[0], self.domain[1]]}
+        data.update(self.params)
+        if self.spec.data_names:
+            x_points, y_points, _ = spline_arrays(self.shared)
+            data["x_points"] = x_points.tolist()
+            data["y_points"] = y_points.tolist()
+        return data
+
+    # -- callable checks ----------------------------------------------------
+
+    def _check_functions(self, curvature_sign, check: bool) -> None:
+        lo, hi = self.domain
+        x = np.linspace(lo, hi, 257)
+        try:
+            f, fp, fpp = self.evaluate(x)
+        except ConfigError:
+            raise
+        except Exception as error:  # numba typing errors, user exceptions
+            raise ConfigError("ramp.f", f"could not evaluate the user functions with numba: "
+                              f"{type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}") from None
+        for label, values in (("f", f), ("fp", fp), ("fpp", fpp)):
+            bad = ~np.isfinite(values)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise ConfigError(f"ramp.{label}", f"not finite at x = {_fmt(x[i])} (got {_fmt(values[i])}); "
+                                  f"the domain [{lo!r}, {hi!r}] must avoid vertical tangents and singularities")
+        if not check:
+            return
+        # derivatives against 4th-order central differences, inside the domain
+        width = hi - lo
+        step = 1e-3 * width
+        xi = np.linspace(lo + 2 * step, hi - 2 * step, 101)
+        shifted = [self.evaluate(xi + k * step) for k in (-2, -1, 1, 2)]
+        f0, fp0, fpp0 = self.evaluate(xi)
+        for label, index, exact in (("fp", 0, fp0), ("fpp", 1, fpp0)):
+            g = [s[index] for s in shifted]
+            fd = (g[0] - 8 * g[1] + 8 * g[2] - g[3]) / (12 * step)
+            scale = np.max(np.abs(exact)) + np.ptp(np.concatenate([s[index] for s in shifted])) / width
+            tol = 1e-4 * scale + 1e-12 * np.max(np.abs(g)) / step
+            bad = np.abs(fd - exact) > tol
+            if bad.any():
+                i = int(np.argmax(np.abs(fd - exact) - tol))
+                of = "f" if label == "fp" else "fp"
+                raise ConfigError(f"ramp.{label}", f"does not match the derivative of {of}: at x = {_fmt(xi[i])} "
+                                  f"{label} = {_fmt(exact[i])} but finite differences give {_fmt(fd[i])}")
+        if curvature_sign is not None:
+            scale = np.max(np.abs(fpp)) * 1e-12
+            ok = {1: fpp >= -scale, -1: fpp <= scale, 0: np.abs(fpp) <= scale}[curvature_sign]
+            if not ok.all():
+                i = int(np.argmax(~ok))
+                raise ConfigError("ramp.curvature_sign", f"declared {curvature_sign:+d} but fpp({_fmt(x[i])}) = "
+                                  f"{_fmt(fpp[i])}")
+
+
+_CALLABLE_COUNTER = itertools.count(1)
+
+
+def _as_dispatcher(label: str, function):
+    if not callable(function):
+        raise ConfigError(f"ramp.{label}", f"expected a function of x, got {function!r}")
+    if hasattr(function, "py_func") and hasattr(function, "compile"):  # a numba dispatcher
+        return function
+    return jit(function, cache=False)
+
+
+# ---------------------------------------------------------------------------
+# convenience constructors
+
+
+def straight(slope, height=0.0, *, domain) -> Ramp:
+    return Ramp.create("straight", domain=domain, slope=slope, height=height)
+
+
+def quadratic(curvature, slope=0.0, height=0.0, *, domain) -> Ramp:
+    return Ramp.create("quadratic", domain=domain, curvature=curvature, slope=slope, height=height)
+
+
+def circular_bowl(radius, x_centre=0.0, y_centre=0.0, *, domain) -> Ramp:
+    return Ramp.create("circular_bowl", domain=domain, radius=radius, x_centre=x_centre, y_centre=y_centre)
+
+
+def circular_dome(radius, x_centre=0.0, y_centre=0.0, *, domain) -> Ramp:
+    return Ramp.create("circular_dome", domain=domain, radius=radius, x_centre=x_centre, y_centre=y_centre)
+
+
+def cycloid(radius, *, domain) -> Ramp:
+    return Ramp.create("cycloid", domain=domain, radius=radius)
+
+
+def sine(amplitude, wavenumber, slope=0.0, phase=0.0, *, domain) -> Ramp:
+    return Ramp.create("sine", domain=domain, slope=slope, amplitude=amplitude, wavenumber=wavenumber,
+                       phase=phase)
+
+
+def spline(x_points, y_points, *, domain=None) -> Ramp:
+    return Ramp.create("spline", domain=domain, x_points=x_points, y_points=y_points)
+
+
+def from_functions(f, fp, fpp, *, domain, curvature_sign=None, name=CALLABLE, check=True) -> Ramp:
+    return Ramp.from_functions(f, fp, fpp, domain, curvature_sign=curvature_sign, name=name, check=check)

@@ -1,0 +1,405 @@
+"""The entry point: run a scene over a sweep and return a labelled Dataset.
+
+Data flows one way: validated :class:`~rampwork.scene.Scene` and
+:class:`~rampwork.scene.Sweep` -> a :class:`RunPlan` (every value checked, the
+kernel's compile-time choices made) -> flat per-trajectory parameter arrays,
+chunk by chunk -> the compiled kernel fills flat result arrays ->
+``xarray.Dataset`` following the registry in :mod:`rampwork.schema`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+import xarray as xr
+
+from . import schema
+from .core import kernel as K
+from .core.status import STATUS_NAMES
+from .errors import ConfigError
+from .scene import Scene, Sweep
+
+#: trajectories per kernel call; bounds the temporary input/output arrays
+CHUNK_SIZE = 1 << 18
+#: families whose f', f'' cost less to re-evaluate than to carry in the lanes
+CHEAP_FAMILIES = ("straight", "quadratic")
+#: refuse sweeps whose results would not fit in this share of physical memory
+MEMORY_SHARE = 0.5
+#: bytes held per trajectory in memory: result variables plus a chunk's temporaries
+BYTES_PER_TRAJECTORY = 8 * len(schema.OUTPUTS) + 8
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """A validated run: the kernel's compile-time choices and how to build each
+    trajectory's parameters from the sweep."""
+
+    scene: Scene
+    sweep: Sweep
+    shape: tuple[int, ...]
+    size: int
+    check_contact: bool
+    carry_slope: bool
+
+    @property
+    def kernel_key(self):
+        scene = self.scene
+        return (scene.ramp.spec.key, scene.integrator.method, scene.contact == "one_sided",
+                self.check_contact, self.carry_slope)
+
+
+# ------------------------------------------------------------------------------
+# validation and planning
+# ------------------------------------------------------------------------------
+def _physical_memory() -> int:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return 8 << 30
+
+
+def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
+    """Check everything about a run before any work starts."""
+    if not isinstance(scene, Scene):
+        raise ConfigError("scene", f"expected a rampwork.Scene, got {type(scene).__name__}")
+    sweep = Sweep.single() if sweep is None else sweep
+    if not isinstance(sweep, Sweep):
+        raise ConfigError("sweep", f"expected a rampwork.Sweep, got {type(sweep).__name__}")
+    allowed = scene.axis_names
+    for name in sweep.names:
+        if name not in allowed:
+            raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
+    size = sweep.size
+    memory = size * BYTES_PER_TRAJECTORY
+    if memory > MEMORY_SHARE * _physical_memory():
+        raise ConfigError("sweep", f"{size:,} trajectories need about {memory / 2**30:.1f} GiB for "
+                          f"their results, more than {MEMORY_SHARE:.0%} of this machine's "
+                          f"{_physical_memory() / 2**30:.1f} GiB; split the sweep")
+    axes = dict(sweep.axes)
+    lo, hi = scene.ramp.domain
+
+    x0 = axes.get("x0")
+    if x0 is None:
+        if scene.x0 is None:
+            raise ConfigError("x0", "not given: set the scene's x0 or sweep over x0")
+        x0 = (scene.x0,)
+    x0 = np.asarray(x0)
+    outside = (x0 < lo) | (x0 > hi)
+    if outside.any():
+        where = "sweep.x0" if "x0" in axes else "x0"
+        raise ConfigError(where, f"{x0[outside][0]!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
+    for name in ("mu", "mu_k", "mu_s"):
+        if name in axes and min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {min(axes[name])!r}")
+    for name in ("m", "g"):
+        if name in axes and min(axes[name]) <= 0:
+            raise ConfigError(f"sweep.{name}", f"must be > 0, got {min(axes[name])!r}")
+    _check_static_friction(scene, sweep)
+
+    # ramp parameters: every combination that occurs must be a valid ramp
+    spec = scene.ramp.spec
+    base = scene.ramp.param_dict()
+    swept = [name for name in spec.parameter_names if name in axes]
+    if sweep.kind == "grid" and swept:
+        mesh = np.meshgrid(*[np.asarray(axes[name]) for name in swept], indexing="ij")
+        combos = {name: grid.ravel() for name, grid in zip(swept, mesh)}
+    else:
+        combos = {name: np.asarray(axes[name]) for name in swept}
+    values = {name: combos.get(name, np.array([base[name]])) for name in spec.parameter_names}
+    shared = scene.ramp.shared or None
+    spec.check_values(values, scene.ramp.domain, shared)
+    # n = g + v^2 f'' > 0 for all v where f'' >= 0: no lift-off or contact switch
+    sign = spec.curvature_sign(values, scene.ramp.domain, shared)
+    check_contact = not (sign is not None and sign >= 0)
+    carry_slope = scene.ramp.family not in CHEAP_FAMILIES
+    return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope)
+
+
+def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
+    axes = dict(sweep.axes)
+    if "mu" in axes:
+        return
+    mu_k = np.asarray(axes.get("mu_k", (scene.friction.mu_k,)))
+    mu_s = np.asarray(axes.get("mu_s", (scene.friction.mu_s,)))
+    if sweep.kind == "cases" and "mu_k" in axes and "mu_s" in axes:
+        bad = mu_s < mu_k
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError("sweep.mu_s", f"must be >= mu_k in every case; case {i} has "
+                              f"mu_s = {mu_s[i]!r} < mu_k = {mu_k[i]!r}")
+    elif mu_s.min() < mu_k.max():
+        raise ConfigError("sweep.mu_s" if "mu_s" in axes else "friction.mu_s",
+                          f"must be >= mu_k: mu_s = {mu_s.min()!r} < mu_k = {mu_k.max()!r}; "
+                          "sweep 'mu' to set both together")
+
+
+# ------------------------------------------------------------------------------
+# kernels
+# ------------------------------------------------------------------------------
+_KERNELS: dict = {}
+
+
+def get_kernel(plan: RunPlan):
+    """The compiled ``(run_batch, trace_one)`` for a plan, built once per process
+    (and loaded from numba's on-disk cache when it was compiled before).
+    Returns ``(kernels, seconds)``, seconds spent building and loading."""
+    key = plan.kernel_key
+    if key in _KERNELS:
+        return _KERNELS[key], 0.0
+    started = time.perf_counter()
+    spec = plan.scene.ramp.spec
+    kernels = K.build_kernel(
+        plan.scene.integrator.method, spec.height, spec.slope_curvature, name=spec.key,
+        one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
+        carry_slope=plan.carry_slope, cache=spec.cacheable)
+    _KERNELS[key] = kernels
+    return kernels, time.perf_counter() - started
+
+
+def _settings(scene: Scene) -> np.ndarray:
+    settings = np.zeros(K.N_SETTINGS)
+    settings[K.SET_XLO], settings[K.SET_XHI] = scene.ramp.domain
+    settings[K.SET_DT] = scene.integrator.dt
+    settings[K.SET_TMAX] = scene.t_max
+    return settings
+
+
+def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray) -> float:
+    """Compile (or load) the kernel on one trajectory that ends at once (it
+    starts on the domain's upper end moving out), so that compile time is
+    measured apart from run time."""
+    inputs = chunk_inputs(plan, 0, 1)
+    inputs[K.IN_X0] = plan.scene.ramp.domain[1]
+    inputs[K.IN_V0] = 1.0
+    started = time.perf_counter()
+    run_batch(inputs, settings, np.zeros((K.N_OUTPUTS, 1)), plan.scene.ramp.shared_array(), 1)
+    return time.perf_counter() - started
+
+
+# ------------------------------------------------------------------------------
+# per-trajectory parameters
+# ------------------------------------------------------------------------------
+def axis_values(plan: RunPlan, start: int, stop: int) -> dict[str, np.ndarray]:
+    """Each swept axis's value for the flat trajectories start..stop-1."""
+    sweep = plan.sweep
+    if not sweep.axes:
+        return {}
+    if sweep.kind == "cases":
+        return {name: np.asarray(values)[start:stop] for name, values in sweep.axes}
+    index = np.unravel_index(np.arange(start, stop), plan.shape)
+    return {name: np.asarray(values)[index[k]] for k, (name, values) in enumerate(sweep.axes)}
+
+
+def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:
+    """The kernel's input rows (K.N_INPUTS, stop - start) for a flat range."""
+    scene = plan.scene
+    n = stop - start
+    values = axis_values(plan, start, stop)
+
+    def column(name, default):
+        return values[name] if name in values else np.full(n, default)
+
+    inputs = np.empty((K.N_INPUTS, n))
+    inputs[K.IN_X0] = column("x0", scene.x0)
+    inputs[K.IN_V0] = column("v0", scene.v0)
+    inputs[K.IN_G] = column("g", scene.g)
+    if "mu" in values:
+        inputs[K.IN_MUK] = values["mu"]
+        inputs[K.IN_MUS] = values["mu"]
+    else:
+        inputs[K.IN_MUK] = column("mu_k", scene.friction.mu_k)
+        inputs[K.IN_MUS] = column("mu_s", scene.friction.mu_s)
+    spec = scene.ramp.spec
+    base = scene.ramp.param_dict()
+    params = {name: column(name, base[name]) for name in spec.parameter_names}
+    for row, packed in zip((K.IN_P0, K.IN_P1, K.IN_P2, K.IN_P3), spec.pack(params, n)):
+        inputs[row] = packed
+    return inputs
+
+
+def _masses(plan: RunPlan, start: int, stop: int) -> np.ndarray:
+    values = axis_values(plan, start, stop)
+    return values["m"] if "m" in values else np.full(stop - start, plan.scene.m)
+
+
+# ------------------------------------------------------------------------------
+# reduction to the schema's variables
+# ------------------------------------------------------------------------------
+def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray) -> dict[str, np.ndarray]:
+    """The schema's per-trajectory variables from the kernel's per-unit-mass rows."""
+    mu_k = inputs[K.IN_MUK]
+    g = inputs[K.IN_G]
+    w_friction = mass * raw[K.OUT_WORK]
+    w_energy = mass * raw[K.OUT_ENERGY_LOSS]
+    w_linear = mass * mu_k * g * np.abs(raw[K.OUT_X] - inputs[K.IN_X0])
+    return {
+        "status": raw[K.OUT_STATUS].astype(np.int8),
+        "t_end": raw[K.OUT_T],
+        "x_end": raw[K.OUT_X],
+        "v_end": raw[K.OUT_V],
+        "W_friction": w_friction,
+        "W_energy": w_energy,
+        "W_linear": w_linear,
+        "W_excess": w_friction - w_linear,
+        "W_path": mass * mu_k * g * raw[K.OUT_PATH],
+        "energy_balance_error": w_friction - w_energy,
+        "convexity_mean": raw[K.OUT_CONVEXITY],
+        "path_length_x": raw[K.OUT_PATH],
+        "n_reversals": raw[K.OUT_NREV].astype(np.int32),
+        "x_lift_off": raw[K.OUT_XLIFT],
+        "steps": raw[K.OUT_STEPS].astype(np.int64),
+    }
+
+
+def tile_size(n: int, threads: int) -> int:
+    """Trajectories per tile: enough tiles for every thread to stay busy
+    (dynamic scheduling), each big enough to keep its lanes full."""
+    target = math.ceil(n / (8 * max(threads, 1)))
+    return int(min(16384, max(4 * 64, target)))
+
+
+# ------------------------------------------------------------------------------
+# the entry point
+# ------------------------------------------------------------------------------
+def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = None,
+             progress=None) -> xr.Dataset:
+    """Run ``scene`` over ``sweep`` (default: one trajectory) and return the
+    per-trajectory results as an ``xarray.Dataset`` (DESIGN §2).
+
+    ``threads``: worker threads (default: all of numba's).  ``progress``: an
+    optional callable ``progress(done, total)`` called after each chunk.
+    """
+    plan = plan_run(scene, sweep)
+    threads = _thread_count(threads)
+    (run_batch, trace_one), build_seconds = get_kernel(plan)
+    settings = _settings(scene)
+    shared = scene.ramp.shared_array()
+    compile_seconds = build_seconds + _warm_up(run_batch, plan, settings)
+
+    results = {name: np.empty(plan.size, dtype=schema.OUTPUTS[name].np_dtype)
+               for name in schema.OUTPUTS}
+    previous_threads = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    started = time.perf_counter()
+    try:
+        with numba.parallel_chunksize(1):
+            for start in range(0, plan.size, CHUNK_SIZE):
+                stop = min(plan.size, start + CHUNK_SIZE)
+                inputs = chunk_inputs(plan, start, stop)
+                raw = np.zeros((K.N_OUTPUTS, stop - start))
+                run_batch(inputs, settings, raw, shared, tile_size(stop - start, threads))
+                for name, values in reduce_outputs(raw, inputs, _masses(plan, start, stop)).items():
+                    results[name][start:stop] = values
+                if progress is not None:
+                    progress(stop, plan.size)
+    finally:
+        numba.set_num_threads(previous_threads)
+    run_seconds = time.perf_counter() - started
+
+    dataset = _dataset(plan, results)
+    if scene.record.enabled:
+        trace_started = time.perf_counter()
+        dataset = dataset.merge(_traces(plan, trace_one, settings, shared))
+        # includes trace_one's own first compilation
+        dataset.attrs["trace_time_s"] = time.perf_counter() - trace_started
+    steps = int(results["steps"].sum())
+    dataset.attrs.update(_attributes(plan, compile_seconds, run_seconds, threads, steps))
+    return dataset
+
+
+def _thread_count(threads: int | None) -> int:
+    available = numba.config.NUMBA_NUM_THREADS
+    if threads is None:
+        return available
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ConfigError("threads", f"must be a positive integer, got {threads!r}")
+    if threads > available:
+        raise ConfigError("threads", f"at most {available} on this machine "
+                          f"(NUMBA_NUM_THREADS), got {threads}")
+    return int(threads)
+
+
+def _dataset(plan: RunPlan, results: dict[str, np.ndarray]) -> xr.Dataset:
+    sweep = plan.sweep
+    ramp_parameters = plan.scene.ramp.spec.parameters
+    dims = sweep.dims if sweep.axes else ()
+    shape = plan.shape if sweep.axes else ()
+    coords = {}
+    for name, values in sweep.axes:
+        spec = schema.axis_spec(name, ramp_parameters)
+        attrs = schema.spec_attrs(spec)
+        coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.asarray(values), attrs)
+    if sweep.kind == "cases" and sweep.axes:
+        coords["case"] = ("case", np.arange(plan.size), {"long_name": "case number", "units": "1"})
+    data_vars = {}
+    for name, values in results.items():
+        data_vars[name] = (dims, values.reshape(shape), schema.output_attrs(name))
+    return xr.Dataset(data_vars, coords=coords)
+
+
+def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
+    record = plan.scene.record
+    if record.indices:
+        indices = np.array(record.indices, dtype=np.int64)
+        if indices.max() >= plan.size:
+            raise ConfigError("record.indices", f"{int(indices.max())} is beyond the sweep's "
+                              f"{plan.size} trajectories")
+    else:
+        count = min(record.count, plan.size)
+        indices = np.unique(np.linspace(0, plan.size - 1, count).round().astype(np.int64))
+    samples = np.full((4, len(indices), record.max_samples), np.nan)
+    lengths = np.zeros(len(indices), dtype=np.int64)
+    for k, j in enumerate(indices):
+        inputs = chunk_inputs(plan, int(j), int(j) + 1)
+        trace = np.full((4, record.max_samples), np.nan)
+        lengths[k] = trace_one(0, inputs, settings, shared, record.every, trace)
+        mass = _masses(plan, int(j), int(j) + 1)[0]
+        trace[3] *= mass
+        samples[:, k, :] = trace
+    dims = schema.TRACE_DIMS
+    data_vars = {name: (dims, samples[row], schema.output_attrs(name))
+                 for row, name in enumerate(("trace_t", "trace_x", "trace_v", "trace_W_friction"))}
+    coords = {"traced_index": (dims[0], indices, {"long_name": "flat index of the traced trajectory in the sweep",
+                                                   "units": "1"}),
+              "trace_length": (dims[0], lengths, {"long_name": "number of samples recorded", "units": "1"})}
+    traced_values = [axis_values(plan, int(j), int(j) + 1) for j in indices]
+    for name in plan.sweep.names:
+        coords[f"traced_{name}"] = (dims[0], np.array([values[name][0] for values in traced_values]),
+                                    {"long_name": f"{name} of the traced trajectory"})
+    return xr.Dataset(data_vars, coords=coords)
+
+
+def _attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps) -> dict:
+    from .scenefile import dump_scene
+
+    scene = plan.scene
+    return schema.global_attrs(
+        scene.title,
+        dump_scene(scene, plan.sweep),
+        f"rampwork.simulate: {plan.size} trajectories, {scene.integrator.method}, "
+        f"dt={scene.integrator.dt!r}",
+        {
+            "ramp_family": scene.ramp.family,
+            "ramp_domain": np.array(scene.ramp.domain),
+            "integrator_method": scene.integrator.method,
+            "integrator_order": scene.integrator.order,
+            "integrator_dt": scene.integrator.dt,
+            "t_max": scene.t_max,
+            "contact": scene.contact,
+            "sweep_kind": plan.sweep.kind,
+            "kernel_checks_contact": int(plan.check_contact),
+            "n_trajectories": plan.size,
+            "trajectory_steps": steps,
+            "compile_time_s": compile_seconds,
+            "run_time_s": run_seconds,
+            "threads": threads,
+        },
+    )
+
+
+__all__ = ["simulate", "plan_run", "RunPlan", "STATUS_NAMES"]

@@ -1,0 +1,226 @@
+"""Settings objects: small frozen dataclasses that validate themselves.
+
+A :class:`Scene` says what is simulated (ramp, friction, contact, integrator,
+stop conditions, start values); a :class:`Sweep` says over which values.  Bad
+input raises :class:`~rampwork.errors.ConfigError` naming the parameter, the
+value and what is allowed, before any work starts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from . import validate
+from .core.steppers import STEPPERS
+from .errors import ConfigError
+from .ramps import Ramp
+
+METHODS = tuple(STEPPERS)
+CONTACTS = ("one_sided", "two_sided")
+SWEEP_KINDS = ("grid", "cases")
+#: sweep axes that are not ramp parameters (schema.AXES holds their units)
+SCENE_AXES = ("mu", "mu_k", "mu_s", "x0", "v0", "m", "g")
+#: the most fixed steps one trajectory may take (t_max / dt)
+MAX_STEPS_PER_TRAJECTORY = 1e10
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Coulomb friction: kinetic ``mu_k`` while sliding, static ``mu_s >= mu_k``
+    at rest (``None``: equal to ``mu_k``, the paper's case)."""
+
+    mu_k: float = 0.0
+    mu_s: float | None = None
+
+    def __post_init__(self):
+        mu_k = validate.nonnegative("friction.mu_k", self.mu_k)
+        mu_s = mu_k if self.mu_s is None else validate.nonnegative("friction.mu_s", self.mu_s)
+        if mu_s < mu_k:
+            raise ConfigError("friction.mu_s", f"must be >= mu_k = {mu_k!r}, got {mu_s!r}")
+        object.__setattr__(self, "mu_k", mu_k)
+        object.__setattr__(self, "mu_s", mu_s)
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """A fixed-step method and its step ``dt`` (s)."""
+
+    method: str = "rk4"
+    dt: float = 1e-3
+
+    def __post_init__(self):
+        validate.choice("integrator.method", self.method, METHODS)
+        object.__setattr__(self, "dt", validate.positive("integrator.dt", self.dt))
+
+    @property
+    def order(self) -> int:
+        return STEPPERS[self.method][1]
+
+
+@dataclass(frozen=True)
+class Record:
+    """Record whole trajectories for a few members of a sweep: ``count``
+    trajectories evenly spread over the sweep (or the flat ``indices``), a
+    sample every ``every`` steps and at every event, at most ``max_samples``."""
+
+    count: int = 0
+    every: int = 1
+    max_samples: int = 20000
+    indices: tuple[int, ...] | None = None
+
+    def __post_init__(self):
+        validate.integer("record.count", self.count, 0, 10_000)
+        validate.integer("record.every", self.every, 1)
+        validate.integer("record.max_samples", self.max_samples, 2, 10_000_000)
+        if self.indices is not None:
+            indices = tuple(validate.integer(f"record.indices[{k}]", i, 0)
+                            for k, i in enumerate(self.indices))
+            object.__setattr__(self, "indices", indices)
+
+    @property
+    def enabled(self) -> bool:
+        return self.count > 0 or bool(self.indices)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One physical set-up.  Start values ``x0`` (m), ``v0`` (m/s, horizontal
+    velocity dx/dt), mass ``m`` (kg) and gravity ``g`` (m/s^2) are the values
+    used where a sweep does not set them."""
+
+    ramp: Ramp
+    friction: Friction = field(default_factory=Friction)
+    integrator: Integrator = field(default_factory=Integrator)
+    x0: float | None = None
+    v0: float = 0.0
+    m: float = 1.0
+    g: float = 9.81
+    t_max: float = 60.0
+    contact: str = "one_sided"
+    record: Record = field(default_factory=Record)
+    title: str = "rampwork simulation"
+
+    def __post_init__(self):
+        if not isinstance(self.ramp, Ramp):
+            raise ConfigError("ramp", f"expected a rampwork.Ramp, got {type(self.ramp).__name__}")
+        for name, kind in (("friction", Friction), ("integrator", Integrator), ("record", Record)):
+            if not isinstance(getattr(self, name), kind):
+                raise ConfigError(name, f"expected a rampwork.{kind.__name__}, got {getattr(self, name)!r}")
+        if self.x0 is not None:
+            object.__setattr__(self, "x0", validate.real("x0", self.x0))
+        object.__setattr__(self, "v0", validate.real("v0", self.v0))
+        object.__setattr__(self, "m", validate.positive("m", self.m))
+        object.__setattr__(self, "g", validate.positive("g", self.g))
+        t_max = validate.positive("t_max", self.t_max)
+        object.__setattr__(self, "t_max", t_max)
+        validate.choice("contact", self.contact, CONTACTS)
+        if not isinstance(self.title, str):
+            raise ConfigError("title", f"expected a string, got {self.title!r}")
+        if t_max / self.integrator.dt > MAX_STEPS_PER_TRAJECTORY:
+            raise ConfigError("t_max", f"t_max / dt = {t_max / self.integrator.dt:.3g} steps per "
+                              f"trajectory; at most {MAX_STEPS_PER_TRAJECTORY:.0e} allowed")
+
+    def replace(self, **changes) -> "Scene":
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    @property
+    def axis_names(self) -> tuple[str, ...]:
+        """Every name a sweep may use with this scene."""
+        return SCENE_AXES + self.ramp.spec.parameter_names
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Values to run a scene over: a full ``grid`` (outer product of the axes,
+    one output dimension per axis, in the given order) or ``cases`` (every axis
+    the same length, one ``case`` dimension).  Build with :meth:`grid`,
+    :meth:`cases`, :meth:`random` or :meth:`single`."""
+
+    axes: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    kind: str = "grid"
+
+    def __post_init__(self):
+        validate.choice("sweep.kind", self.kind, SWEEP_KINDS)
+        seen = set()
+        axes = []
+        for name, values in self.axes:
+            if not isinstance(name, str) or not name:
+                raise ConfigError("sweep", f"axis names must be non-empty strings, got {name!r}")
+            if name in seen:
+                raise ConfigError(f"sweep.{name}", "given twice")
+            seen.add(name)
+            array = validate.real_array(f"sweep.{name}", values)
+            axes.append((name, tuple(float(v) for v in array)))
+        if {"mu", "mu_k"} <= seen or {"mu", "mu_s"} <= seen:
+            raise ConfigError("sweep.mu", "sets mu_k = mu_s; do not combine it with mu_k or mu_s axes")
+        if self.kind == "cases" and axes:
+            lengths = {len(values) for _, values in axes}
+            if len(lengths) > 1:
+                raise ConfigError("sweep", "cases need axes of one length, got "
+                                  + ", ".join(f"{n}: {len(v)}" for n, v in axes))
+        object.__setattr__(self, "axes", tuple(axes))
+
+    @classmethod
+    def grid(cls, **axes) -> "Sweep":
+        return cls(tuple(axes.items()), "grid")
+
+    @classmethod
+    def cases(cls, **columns) -> "Sweep":
+        return cls(tuple(columns.items()), "cases")
+
+    @classmethod
+    def single(cls) -> "Sweep":
+        """No axes: one trajectory with the scene's own values."""
+        return cls((), "grid")
+
+    @classmethod
+    def random(cls, n: int, seed: int = 0, log: tuple[str, ...] = (), **ranges) -> "Sweep":
+        """``n`` cases drawn uniformly from ``ranges`` (name -> (low, high));
+        names in ``log`` are drawn uniformly in their logarithm (low > 0)."""
+        n = validate.integer("sweep.n", n, 1)
+        seed = validate.integer("sweep.seed", seed, 0)
+        rng = np.random.default_rng(seed)
+        columns = {}
+        for name, bounds in ranges.items():
+            where = f"sweep.{name}"
+            if not isinstance(bounds, (tuple, list)) or len(bounds) != 2:
+                raise ConfigError(where, f"expected (low, high), got {bounds!r}")
+            low, high = validate.real(where, bounds[0]), validate.real(where, bounds[1])
+            if not low <= high:
+                raise ConfigError(where, f"low must be <= high, got ({low}, {high})")
+            if name in log:
+                if low <= 0:
+                    raise ConfigError(where, f"log-uniform needs low > 0, got {low}")
+                columns[name] = np.exp(rng.uniform(np.log(low), np.log(high), n))
+            else:
+                columns[name] = rng.uniform(low, high, n)
+        unknown = set(log) - set(ranges)
+        if unknown:
+            raise ConfigError("sweep.log", f"names not among the ranges: {sorted(unknown)}")
+        return cls.cases(**columns)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(name for name, _ in self.axes)
+
+    def values(self, name: str) -> np.ndarray:
+        return np.array(dict(self.axes)[name])
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        if self.kind == "cases":
+            return (len(self.axes[0][1]),) if self.axes else (1,)
+        return tuple(len(values) for _, values in self.axes)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape, dtype=np.int64))
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        if self.kind == "cases":
+            return ("case",)
+        return self.names

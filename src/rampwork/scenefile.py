@@ -1,0 +1,613 @@
+"""Scene files: a :class:`~rampwork.scene.Scene` and a :class:`~rampwork.scene.Sweep`
+as TOML text, read with :func:`load_scene` / :func:`parse_scene` and written
+with :func:`dump_scene` (which :func:`rampwork.simulate` uses to
+store the scene in every dataset, so that a netCDF file alone says how to
+reproduce it).
+
+The format
+==========
+
+Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
+
+    title = "Block on a convex bowl"
+    x0 = -0.8          # m, start position (may be swept instead)
+    v0 = 0.0           # m/s, horizontal velocity dx/dt          (default 0)
+    m = 1.0            # kg                                       (default 1)
+    g = 9.81           # m/s^2                                    (default 9.81)
+    t_max = 30.0       # s, stop a trajectory still moving then   (default 60)
+    contact = "one_sided"   # or "two_sided" (bead on a wire)     (default one_sided)
+
+    [ramp]             # required
+    family = "quadratic"    # straight | quadratic | circular_bowl | circular_dome
+                            # | cycloid | sine | spline
+    curvature = 1.0         # the family's own parameters (see `rampwork.FAMILIES`)
+    slope = 0.0
+    domain = [-1.0, 1.0]    # m, [x_min, x_max]; a spline defaults to its points' range
+    # spline only: x_points = [...], y_points = [...]
+
+    [friction]         # default mu_k = 0
+    mu_k = 0.3
+    mu_s = 0.4         # optional, defaults to mu_k; must be >= mu_k
+
+    [integrator]       # default rk4, dt = 1e-3
+    method = "rk4"     # euler | semi_implicit_euler | rk4
+    dt = 1e-3          # s
+
+    [record]           # optional: record a few whole trajectories
+    count = 4          # trajectories spread evenly over the sweep (or indices = [...])
+    every = 10         # a sample every `every` steps (and at every event)
+    max_samples = 20000
+
+    [sweep]            # optional: without it, one trajectory
+    kind = "grid"      # "grid" (outer product, one dimension per axis, in file order),
+                       # "cases" (all axes one length, one `case` dimension) or "random"
+    [sweep.axes]       # names: mu, mu_k, mu_s, x0, v0, m, g, or a ramp parameter
+    mu = [0.1, 0.2, 0.3]                           # explicit list
+    x0 = { linspace = [-0.9, 0.9, 19] }            # start, stop, num (both ends included)
+    v0 = { logspace = [-2, 1, 4] }                 # 10**start .. 10**stop, num
+    curvature = { arange = [0.5, 2.0, 0.5] }       # start, stop, step: numpy's arange,
+                                                   # stop excluded (careful with float ends)
+
+A random design draws ``n`` cases (a ``case`` dimension, like ``kind = "cases"``)::
+
+    [sweep]
+    kind = "random"
+    n = 1000
+    seed = 1           # default 0
+    [sweep.axes]
+    mu = { uniform = [0.05, 0.4] }
+    curvature = { loguniform = [0.1, 3.0] }        # uniform in log; low > 0
+
+``mu`` sets ``mu_k = mu_s``; do not combine it with ``mu_k`` or ``mu_s`` axes.
+A swept value replaces the scene's own (``x0`` may then be left out).
+
+Rules: every key is checked; an unknown key, a value of the wrong type, a
+NaN or infinite number (TOML's ``nan``/``inf`` literals included), an empty
+or negative size, an axis of more than 1e8 points or a sweep of more than 1e9
+trajectories is refused with a one-line :class:`~rampwork.errors.ConfigError`
+naming the file and the key, before anything is allocated or run.
+
+:func:`dump_scene` writes every setting explicitly (defaults included) and a
+random design as the ``"cases"`` it drew, with exact values (floats by
+``repr``), so that ``parse_scene(dump_scene(scene, sweep))`` gives back equal
+objects; an evenly spaced axis is written as its ``linspace`` when that
+reproduces the values bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import tomllib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ConfigError
+from .ramps import CALLABLE, FAMILIES, Ramp
+from .scene import SCENE_AXES, Friction, Integrator, Record, Scene, Sweep
+
+__all__ = [
+    "MAX_AXIS_POINTS",
+    "MAX_TRAJECTORIES",
+    "apply_overrides",
+    "dump_scene",
+    "load_scene",
+    "parse_scene",
+    "read_toml",
+    "scene_from_dict",
+]
+
+#: the most values one sweep axis (or a random design) may have
+MAX_AXIS_POINTS = 10**8
+#: the most trajectories one sweep may have
+MAX_TRAJECTORIES = 10**9
+
+TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact",
+            "ramp", "friction", "integrator", "record", "sweep")
+FRICTION_KEYS = ("mu_k", "mu_s")
+INTEGRATOR_KEYS = ("method", "dt")
+RECORD_KEYS = ("count", "every", "max_samples", "indices")
+SWEEP_KEYS = ("kind", "axes", "n", "seed")
+FILE_SWEEP_KINDS = ("grid", "cases", "random")
+GENERATORS = ("linspace", "logspace", "arange")
+RANDOM_GENERATORS = ("uniform", "loguniform")
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+# ----------------------------------------------------------------------------
+# reading
+# ----------------------------------------------------------------------------
+
+
+def _one_line(text: Any) -> str:
+    return " ".join(str(text).split())
+
+
+def _located(source: str, error: ConfigError) -> ConfigError:
+    """``error`` re-raised as ``ConfigError(source, ...)`` on one line."""
+    where, problem = error.where, error.problem
+    if not where:
+        message = problem
+    elif where.startswith("["):
+        message = f"{where} {problem}"
+    else:
+        message = f"{where}: {problem}"
+    return ConfigError(source, _one_line(message))
+
+
+def _unknown(table: str, key: str, allowed: Sequence[str], hint: str = "") -> ConfigError:
+    place = f"[{table}]" if table else ""
+    what = "unknown key" if table else "unknown top-level key"
+    return ConfigError(place, f"{what} {_short(key)}; allowed: {', '.join(allowed)}{hint}")
+
+
+def _check_keys(table: str, data: Mapping, allowed: Sequence[str], hint: str = "") -> None:
+    for key in data:
+        if key not in allowed:
+            raise _unknown(table, key, allowed, hint)
+
+
+def _table(where: str, value) -> dict:
+    if not isinstance(value, dict):
+        raise ConfigError(where, f"expected a table ([{where}] or {{ ... }}), got {_short(value)}")
+    return value
+
+
+def _type_name(value) -> str:
+    return type(value).__name__
+
+
+def _short(value, limit: int = 60) -> str:
+    """``repr(value)``, cut to about ``limit`` characters for one-line messages."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**30:
+        return f"an integer of {len(str(abs(value)))} digits"
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 5] + " ...]" if text[0] == "[" else text[:limit - 4] + " ..."
+
+
+def _number(where: str, value, sweepable: bool = False) -> float:
+    """A finite float from a TOML int or float (bools, strings, NaN, inf refused)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        hint = ""
+        if sweepable and isinstance(value, (list, dict)):
+            hint = f"; to run several values, list them under [sweep.axes]"
+        raise ConfigError(where, f"expected a finite number, got {_short(value)} ({_type_name(value)}){hint}")
+    try:
+        number = float(value)
+    except OverflowError:
+        raise ConfigError(where, f"number too large: {_short(value)}") from None
+    if not math.isfinite(number):
+        raise ConfigError(where, f"must be a finite number, got {value!r}")
+    return number
+
+
+def _integer(where: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(where, f"expected an integer, got {_short(value)} ({_type_name(value)})")
+    if minimum is not None and value < minimum:
+        raise ConfigError(where, f"must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ConfigError(where, f"must be <= {maximum:.0e}, got {value}" if maximum >= 10**6
+                          else f"must be <= {maximum}, got {value}")
+    return value
+
+
+def _string(where: str, value) -> str:
+    if not isinstance(value, str):
+        raise ConfigError(where, f"expected a string, got {_short(value)} ({_type_name(value)})")
+    return value
+
+
+def _numbers(where: str, value, length: int | None = None) -> list[float]:
+    """A list of finite numbers (of ``length`` items if given)."""
+    if not isinstance(value, list):
+        raise ConfigError(where, f"expected a list of numbers, got {_short(value)} ({_type_name(value)})")
+    if length is not None and len(value) != length:
+        raise ConfigError(where, f"expected {length} numbers, got {len(value)}")
+    return [_number(f"{where}[{i}]", item) for i, item in enumerate(value)]
+
+
+def read_toml(text: str, source: str = "<string>") -> dict:
+    """The TOML document ``text`` as a dict; syntax errors -> one-line ConfigError."""
+    if not isinstance(text, str):
+        raise ConfigError(source, f"expected TOML text (str), got {_type_name(text)}")
+    if text.startswith("\ufeff"):  # a byte-order mark some editors write
+        text = text[1:]
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(source, f"TOML syntax error: {_one_line(error)}") from None
+
+
+def parse_scene(text: str, source: str = "<string>") -> tuple[Scene, Sweep]:
+    """The scene and sweep described by the TOML ``text`` (format in the module
+    docstring).  Errors: :class:`ConfigError` naming ``source`` and the key."""
+    return scene_from_dict(read_toml(text, source), source)
+
+
+def _read_text(path: str | os.PathLike) -> str:
+    path = Path(path)
+    where = str(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(where, "no such file") from None
+    except IsADirectoryError:
+        raise ConfigError(where, "is a directory, not a scene file") from None
+    except OSError as error:
+        raise ConfigError(where, f"cannot be read: {_one_line(error.strerror or error)}") from None
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        line = data[:error.start].count(b"\n") + 1
+        raise ConfigError(where, f"not UTF-8 text: byte 0x{data[error.start]:02x} at line {line} "
+                          f"(offset {error.start}): {error.reason}") from None
+
+
+def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> tuple[Scene, Sweep]:
+    """The scene and sweep in the TOML file ``path``.  ``overrides``:
+    ``"KEY=VALUE"`` strings applied before validation (see :func:`apply_overrides`)."""
+    source = str(path)
+    data = read_toml(_read_text(path), source)
+    if overrides:
+        apply_overrides(data, overrides)
+    return scene_from_dict(data, source)
+
+
+def _override_value(text: str):
+    try:
+        return tomllib.loads(f"value = {text}")["value"]
+    except tomllib.TOMLDecodeError:
+        return text  # a bare word such as euler or two_sided: taken as a string
+
+
+def apply_overrides(data: dict, overrides: Sequence[str]) -> dict:
+    """Set dotted keys in a parsed scene document, in place: each override is
+    ``"KEY=VALUE"`` such as ``"integrator.dt=1e-4"``, ``"friction.mu_k=0.2"``,
+    ``"contact=two_sided"``.  VALUE is read as a TOML value (number, string,
+    boolean, array, inline table); text that is not one is taken as a string.
+    Missing tables are created; the result is validated as usual afterwards."""
+    for item in overrides:
+        if not isinstance(item, str) or "=" not in item:
+            raise ConfigError("--set", f"expected KEY=VALUE, got {item!r}")
+        key, _, raw = item.partition("=")
+        key = key.strip()
+        parts = key.split(".")
+        if not key or not all(_BARE_KEY.fullmatch(part) for part in parts):
+            raise ConfigError("--set", f"bad key {key!r} in {item!r}: expected dotted names such as "
+                              "integrator.dt")
+        value = _override_value(raw.strip())
+        table = data
+        for depth, part in enumerate(parts[:-1]):
+            child = table.setdefault(part, {})
+            if not isinstance(child, dict):
+                raise ConfigError("--set", f"{'.'.join(parts[:depth + 1])} is not a table, "
+                                  f"so {key!r} cannot be set")
+            table = child
+        table[parts[-1]] = value
+    return data
+
+
+def scene_from_dict(data: Mapping, source: str = "<dict>") -> tuple[Scene, Sweep]:
+    """The scene and sweep described by a parsed TOML document."""
+    try:
+        if not isinstance(data, Mapping):
+            raise ConfigError("", f"expected a table of settings, got {_type_name(data)}")
+        data = dict(data)
+        _check_keys("", data, TOP_KEYS)
+        scene = _scene(data)
+        sweep = _sweep(data.get("sweep"), scene)
+    except ConfigError as error:
+        raise _located(source, error) from None
+    return scene, sweep
+
+
+def _scene(data: dict) -> Scene:
+    if "ramp" not in data:
+        raise ConfigError("ramp", "required: a [ramp] table with family, its parameters and domain")
+    ramp = _ramp(_table("ramp", data["ramp"]))
+    kwargs: dict[str, Any] = {"ramp": ramp}
+    if "title" in data:
+        kwargs["title"] = _string("title", data["title"])
+    for key in ("x0", "v0", "m", "g", "t_max"):
+        if key in data:
+            kwargs[key] = _number(key, data[key], sweepable=key in SCENE_AXES)
+    if "contact" in data:
+        kwargs["contact"] = _string("contact", data["contact"])
+
+    friction = _table("friction", data.get("friction", {}))
+    _check_keys("friction", friction, FRICTION_KEYS,
+                "; to sweep friction list mu, mu_k or mu_s under [sweep.axes]" if "mu" in friction else "")
+    kwargs["friction"] = Friction(**{key: _number(f"friction.{key}", value, sweepable=True)
+                                     for key, value in friction.items()})
+
+    integrator = _table("integrator", data.get("integrator", {}))
+    _check_keys("integrator", integrator, INTEGRATOR_KEYS)
+    args: dict[str, Any] = {}
+    if "method" in integrator:
+        args["method"] = _string("integrator.method", integrator["method"])
+    if "dt" in integrator:
+        args["dt"] = _number("integrator.dt", integrator["dt"])
+    kwargs["integrator"] = Integrator(**args)
+
+    record = _table("record", data.get("record", {}))
+    _check_keys("record", record, RECORD_KEYS)
+    args = {}
+    for key in ("count", "every", "max_samples"):
+        if key in record:
+            args[key] = _integer(f"record.{key}", record[key])
+    if "indices" in record:
+        indices = record["indices"]
+        if not isinstance(indices, list):
+            raise ConfigError("record.indices", f"expected a list of integers, got {_short(indices)}")
+        args["indices"] = tuple(_integer(f"record.indices[{i}]", v, 0) for i, v in enumerate(indices))
+    kwargs["record"] = Record(**args)
+    return Scene(**kwargs)
+
+
+def _ramp(table: dict) -> Ramp:
+    if "family" not in table:
+        raise ConfigError("ramp.family", f"required; allowed: {', '.join(FAMILIES)}")
+    family = _string("ramp.family", table["family"])
+    if family not in FAMILIES:
+        raise ConfigError("ramp.family", f"unknown ramp family {_short(family)}; allowed: {', '.join(FAMILIES)}")
+    spec = FAMILIES[family]
+    allowed = ("family", "domain") + spec.parameter_names + spec.data_names
+    _check_keys("ramp", table, allowed)
+    kwargs: dict[str, Any] = {}
+    if "domain" in table:
+        kwargs["domain"] = tuple(_numbers("ramp.domain", table["domain"], 2))
+    for name in spec.parameter_names:
+        if name in table:
+            kwargs[name] = _number(f"ramp.{name}", table[name], sweepable=True)
+    for name in spec.data_names:
+        if name in table:
+            kwargs[name] = _numbers(f"ramp.{name}", table[name])
+    return Ramp.create(family, **kwargs)
+
+
+# -- sweeps -------------------------------------------------------------------
+
+
+def _axis_length(where: str, spec, random: bool) -> tuple[str, Any, int]:
+    """(kind, arguments, number of values) of one axis, checked, not expanded."""
+    if random:
+        if not isinstance(spec, dict):
+            raise ConfigError(where, f"a random design draws each axis from {{ uniform = [low, high] }} "
+                              f"or {{ loguniform = [low, high] }}, got {_short(spec)}")
+        allowed = RANDOM_GENERATORS
+    elif isinstance(spec, list):
+        values = _numbers(where, spec)
+        if not values:
+            raise ConfigError(where, "expected at least one value, got []")
+        return "list", values, len(values)
+    elif isinstance(spec, (int, float)) and not isinstance(spec, bool):
+        return "list", [_number(where, spec)], 1
+    elif not isinstance(spec, dict):
+        raise ConfigError(where, f"expected a list of numbers or {{ linspace | logspace | arange = "
+                          f"[...] }}, got {_short(spec)} ({_type_name(spec)})")
+    else:
+        allowed = GENERATORS
+    for key in spec:
+        if key not in allowed:
+            raise _unknown(where, key, allowed)
+    if len(spec) != 1:
+        raise ConfigError(where, f"expected exactly one of {', '.join(allowed)}, got "
+                          f"{', '.join(spec) or 'none'}")
+    (kind, args), = spec.items()
+    at = f"{where}.{kind}"
+    if kind in RANDOM_GENERATORS:
+        low, high = _numbers(at, args, 2)
+        return kind, (low, high), 0
+    if kind in ("linspace", "logspace"):
+        if not isinstance(args, list) or len(args) != 3:
+            raise ConfigError(at, f"expected [start, stop, num], got {_short(args)}")
+        start, stop = _number(f"{at}[0]", args[0]), _number(f"{at}[1]", args[1])
+        num = _integer(f"{at}[2] (num)", args[2], 1, MAX_AXIS_POINTS)
+        if kind == "logspace" and max(start, stop) > 308:
+            raise ConfigError(at, f"10**{max(start, stop)!r} is not a finite float; exponents must "
+                              "be <= 308")
+        return kind, (start, stop, num), num
+    # arange
+    if not isinstance(args, list) or len(args) != 3:
+        raise ConfigError(at, f"expected [start, stop, step], got {_short(args)}")
+    start, stop, step = _numbers(at, args, 3)
+    if step == 0:
+        raise ConfigError(f"{at}[2] (step)", "must not be 0")
+    count = math.ceil((stop - start) / step)
+    if not math.isfinite(count) or count < 1:
+        raise ConfigError(at, f"[{start!r}, {stop!r}, {step!r}] gives no values (stop is excluded; "
+                          "step must point from start towards stop)")
+    if count > MAX_AXIS_POINTS:
+        raise ConfigError(at, f"gives {count:.3g} values; at most {MAX_AXIS_POINTS:.0e} per axis")
+    return kind, (start, stop, step), count
+
+
+def _expand(kind: str, args) -> np.ndarray:
+    if kind == "list":
+        return np.asarray(args, dtype=np.float64)
+    if kind == "linspace":
+        return np.linspace(args[0], args[1], args[2])
+    if kind == "logspace":
+        return np.logspace(args[0], args[1], args[2])
+    return np.arange(args[0], args[1], args[2], dtype=np.float64)
+
+
+def _sweep_where(error: ConfigError, names: Sequence[str]) -> ConfigError:
+    """Sweep's own errors say ``sweep.<axis>``; the file's key is ``sweep.axes.<axis>``."""
+    head, _, rest = error.where.partition(".")
+    if head == "sweep" and rest.split("[")[0] in names:
+        return ConfigError(f"sweep.axes.{rest}", error.problem)
+    return error
+
+
+def _sweep(table, scene: Scene) -> Sweep:
+    if table is None:
+        return Sweep.single()
+    table = _table("sweep", table)
+    _check_keys("sweep", table, SWEEP_KEYS,
+                " (axes go in [sweep.axes])" if any(k in scene.axis_names for k in table) else "")
+    kind = _string("sweep.kind", table.get("kind", "grid"))
+    if kind not in FILE_SWEEP_KINDS:
+        raise ConfigError("sweep.kind", f"unknown value {_short(kind)}; allowed: "
+                          f"{', '.join(map(repr, FILE_SWEEP_KINDS))}")
+    random = kind == "random"
+    if not random:
+        for key in ("n", "seed"):
+            if key in table:
+                raise ConfigError(f"sweep.{key}", f"only used with kind = \"random\" (this sweep is {_short(kind)})")
+    axes = _table("sweep.axes", table.get("axes", {}))
+    allowed = scene.axis_names
+    for name in axes:
+        if name not in allowed:
+            raise ConfigError("[sweep.axes]", f"unknown axis {_short(name)}; allowed: {', '.join(allowed)}")
+    plans = {name: _axis_length(f"sweep.axes.{name}", spec, random) for name, spec in axes.items()}
+
+    try:
+        if random:
+            if "n" not in table:
+                raise ConfigError("sweep.n", "required with kind = \"random\": the number of cases")
+            n = _integer("sweep.n", table["n"], 1, MAX_AXIS_POINTS)
+            seed = _integer("sweep.seed", table.get("seed", 0), 0)
+            if not plans:
+                raise ConfigError("[sweep.axes]", "a random design needs at least one axis")
+            ranges = {name: args for name, (_, args, _) in plans.items()}
+            log = tuple(name for name, (gen, _, _) in plans.items() if gen == "loguniform")
+            return Sweep.random(n, seed, log=log, **ranges)
+
+        lengths = {name: length for name, (_, _, length) in plans.items()}
+        if kind == "grid":
+            total = math.prod(lengths.values())
+            if total > MAX_TRAJECTORIES:
+                shape = " x ".join(f"{name} {length}" for name, length in lengths.items())
+                raise ConfigError("sweep", f"a grid of {shape} = {total:.3g} trajectories; at most "
+                                  f"{MAX_TRAJECTORIES:.0e} (split the study into several runs)")
+        elif len(set(lengths.values())) > 1:
+            raise ConfigError("sweep", "cases need axes of one length, got "
+                              + ", ".join(f"{name}: {length}" for name, length in lengths.items()))
+        columns = []
+        for name, (gen, args, length) in plans.items():
+            values = _expand(gen, args)
+            if values.size != length or not np.isfinite(values).all():  # pragma: no cover - guarded above
+                raise ConfigError(f"sweep.axes.{name}", f"{gen} {args!r} did not give {length} finite values")
+            columns.append((name, values))
+        return Sweep(tuple(columns), kind)
+    except ConfigError as error:
+        raise _sweep_where(error, list(axes)) from None
+
+
+# ----------------------------------------------------------------------------
+# writing
+# ----------------------------------------------------------------------------
+
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_string(text: str) -> str:
+    out = []
+    for char in text:
+        if char in _ESCAPES:
+            out.append(_ESCAPES[char])
+        elif ord(char) < 0x20 or ord(char) == 0x7F:
+            out.append(f"\\u{ord(char):04X}")
+        else:
+            out.append(char)
+    return '"' + "".join(out) + '"'
+
+
+def _toml_key(key: str) -> str:
+    return key if _BARE_KEY.fullmatch(key) else _toml_string(key)
+
+
+def _toml_float(where: str, value) -> str:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(where, f"cannot write a non-finite number ({value!r}) to a scene file")
+    return repr(value)  # shortest text that reads back to the same float
+
+
+def _toml_value(where: str, value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return _toml_float(where, value)
+    raise ConfigError(where, f"cannot write {value!r} ({_type_name(value)}) to a scene file")
+
+
+def _toml_array(where: str, values, width: int = 96) -> str:
+    items = [_toml_value(f"{where}[{i}]", v) for i, v in enumerate(values)]
+    line = "[" + ", ".join(items) + "]"
+    if len(line) <= width:
+        return line
+    rows, row = [], ""
+    for item in items:
+        if row and len(row) + len(item) + 2 > width:
+            rows.append(row)
+            row = ""
+        row += item + ", "
+    rows.append(row)
+    return "[\n" + "".join(f"    {r.rstrip()}\n" for r in rows) + "]"
+
+
+def _axis_text(name: str, values: Sequence[float]) -> str:
+    array = np.asarray(values, dtype=np.float64)
+    if array.size >= 4:
+        spaced = np.linspace(array[0], array[-1], array.size)
+        if spaced.tobytes() == array.tobytes():
+            return (f"{{ linspace = [{_toml_float(name, array[0])}, {_toml_float(name, array[-1])}, "
+                    f"{array.size}] }}")
+    return _toml_array(f"sweep.axes.{name}", [float(v) for v in values])
+
+
+def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
+    """``scene`` and ``sweep`` as scene-file TOML text that :func:`parse_scene`
+    reads back to equal objects.  Callable ramps cannot be written."""
+    if not isinstance(scene, Scene):
+        raise ConfigError("scene", f"expected a rampwork.Scene, got {_type_name(scene)}")
+    if sweep is not None and not isinstance(sweep, Sweep):
+        raise ConfigError("sweep", f"expected a rampwork.Sweep or None, got {_type_name(sweep)}")
+    if scene.ramp.family == CALLABLE:
+        raise ConfigError("ramp", "a ramp of user functions (Ramp.from_functions) cannot be written "
+                          "to a scene file; only the registered families can")
+    lines = ["# rampwork scene file (TOML): run it with `rampwork run FILE -o OUT.nc`",
+             f"title = {_toml_string(scene.title)}"]
+    if scene.x0 is not None:
+        lines.append(f"x0 = {_toml_float('x0', scene.x0)}")
+    for key in ("v0", "m", "g", "t_max"):
+        lines.append(f"{key} = {_toml_float(key, getattr(scene, key))}")
+    lines.append(f"contact = {_toml_string(scene.contact)}")
+
+    ramp = scene.ramp.to_dict()
+    lines += ["", "[ramp]", f"family = {_toml_string(ramp.pop('family'))}",
+              f"domain = {_toml_array('ramp.domain', [float(v) for v in ramp.pop('domain')])}"]
+    for key, value in ramp.items():
+        text = (_toml_array(f"ramp.{key}", [float(v) for v in value]) if isinstance(value, (list, tuple))
+                else _toml_float(f"ramp.{key}", value))
+        lines.append(f"{_toml_key(key)} = {text}")
+
+    friction = scene.friction
+    lines += ["", "[friction]", f"mu_k = {_toml_float('friction.mu_k', friction.mu_k)}",
+              f"mu_s = {_toml_float('friction.mu_s', friction.mu_s)}"]
+    integrator = scene.integrator
+    lines += ["", "[integrator]", f"method = {_toml_string(integrator.method)}",
+              f"dt = {_toml_float('integrator.dt', integrator.dt)}"]
+    record = scene.record
+    lines += ["", "[record]", f"count = {int(record.count)}", f"every = {int(record.every)}",
+              f"max_samples = {int(record.max_samples)}"]
+    if record.indices is not None:
+        lines.append(f"indices = {_toml_array('record.indices', [int(i) for i in record.indices])}")
+
+    if sweep is not None:
+        lines += ["", "[sweep]", f"kind = {_toml_string(sweep.kind)}", "", "[sweep.axes]"]
+        for name, values in sweep.axes:
+            lines.append(f"{_toml_key(name)} = {_axis_text(name, values)}")
+    return "\n".join(lines) + "\n"

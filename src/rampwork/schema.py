@@ -1,0 +1,401 @@
+"""The one registry of dataset variables: names, units, long names, dtypes.
+
+Every other module (kernel wrappers, sweep runner, netCDF I/O, plotting, CLI)
+reads variable names and attributes from here; nothing else spells them out.
+
+Units are UDUNITS spellings ("s", "m", "m s-1", "J", "m-1", "1"), as CF asks.
+Equation numbers refer to the paper in /work/shared/paper.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from rampwork.core.status import STATUS_TABLE
+from rampwork.errors import ConfigError
+
+__all__ = [
+    "VariableSpec",
+    "OUTPUTS",
+    "AXES",
+    "TRAJECTORY_RECORD",
+    "TRACE_DIMS",
+    "CASE_DIM",
+    "STATUS_FLAG_VALUES",
+    "STATUS_FLAG_MEANINGS",
+    "STATUS_FLAG_DESCRIPTIONS",
+    "CONVENTIONS",
+    "axis_spec",
+    "spec_attrs",
+    "output_attrs",
+    "empty_output",
+    "netcdf_attrs",
+    "global_attrs",
+]
+
+CONVENTIONS = "CF-1.10"
+
+#: dimension of a sweep given as a list of points (random / space-filling designs)
+CASE_DIM = "case"
+
+#: dimensions of recorded (sampled) trajectories
+TRACE_DIMS = ("traced", "sample")
+
+_NAN = float("nan")
+
+
+@dataclass(frozen=True)
+class VariableSpec:
+    """One dataset variable: name, CF ``units`` and ``long_name``, numpy dtype.
+
+    ``fill_value`` is the value for "missing / not computed" (NaN for floats,
+    None for integers, which are written without a ``_FillValue``).
+    """
+
+    name: str
+    units: str
+    long_name: str
+    dtype: str
+    description: str
+    fill_value: Any = None
+
+    @property
+    def np_dtype(self) -> np.dtype:
+        return np.dtype(self.dtype)
+
+
+def _f(name, units, long_name, description, dtype="float64"):
+    return VariableSpec(name, units, long_name, dtype, description, fill_value=_NAN)
+
+
+def _i(name, dtype, long_name, description, units="1"):
+    return VariableSpec(name, units, long_name, dtype, description, fill_value=None)
+
+
+# ----------------------------------------------------------------------------
+# status flags (CF flag_values / flag_meanings), from core.status.STATUS_TABLE
+# ----------------------------------------------------------------------------
+
+STATUS_FLAG_VALUES = np.array([code for code, _, _ in STATUS_TABLE], dtype=np.int8)
+STATUS_FLAG_MEANINGS = " ".join(name for _, name, _ in STATUS_TABLE)
+STATUS_FLAG_DESCRIPTIONS = "; ".join(f"{name}: {meaning}" for _, name, meaning in STATUS_TABLE)
+
+# ----------------------------------------------------------------------------
+# per-trajectory outputs, in dataset order
+# ----------------------------------------------------------------------------
+
+_OUTPUT_LIST = (
+    _i(
+        "status",
+        "int8",
+        "trajectory end status",
+        "how the trajectory ended; see flag_values, flag_meanings and flag_descriptions",
+    ),
+    _f("t_end", "s", "time at the end of the trajectory", "time at which the trajectory ended"),
+    _f("x_end", "m", "horizontal position at the end", "x at the end of the trajectory"),
+    _f(
+        "v_end",
+        "m s-1",
+        "horizontal velocity at the end",
+        "horizontal velocity dx/dt at the end of the trajectory",
+    ),
+    _f(
+        "W_friction",
+        "J",
+        "work against friction",
+        "work done against friction integrated along the trajectory (paper eq. 13)",
+    ),
+    _f(
+        "W_energy",
+        "J",
+        "mechanical energy lost",
+        "initial minus final mechanical energy, kinetic plus potential (paper eq. 19)",
+    ),
+    _f(
+        "W_linear",
+        "J",
+        "straight-ramp friction work estimate",
+        "mu_k m g |x_end - x0|, the friction work of a straight ramp (paper eq. 1)",
+    ),
+    _f(
+        "W_excess",
+        "J",
+        "friction work in excess of the straight-ramp estimate",
+        "W_friction - W_linear",
+    ),
+    _f(
+        "W_path",
+        "J",
+        "straight-ramp friction work over the horizontal path travelled",
+        "mu_k m g integral of |v| dt (horizontal path length including reversals)",
+    ),
+    _f(
+        "energy_balance_error",
+        "J",
+        "energy balance error",
+        "W_friction - W_energy: per-trajectory estimate of the integration error",
+    ),
+    _f(
+        "convexity_mean",
+        "m-1",
+        "mean ramp curvature term f'' over the path travelled",
+        "integral of f''(x)|v| dt / integral of |v| dt; f''(x0) where nothing was travelled",
+    ),
+    _f(
+        "path_length_x",
+        "m",
+        "horizontal path length travelled",
+        "integral of |v| dt: horizontal distance travelled including reversals",
+    ),
+    _i(
+        "n_reversals",
+        "int32",
+        "number of reversals of direction",
+        "number of times the horizontal velocity changed sign",
+    ),
+    _f(
+        "x_lift_off",
+        "m",
+        "horizontal position of lift-off",
+        "x where the normal force reached zero on a one-sided ramp; NaN where no lift-off happened",
+    ),
+    _i(
+        "steps",
+        "int64",
+        "integrator steps taken",
+        "number of integrator steps taken, including partial event steps",
+    ),
+)
+
+OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OUTPUT_LIST}
+
+# ----------------------------------------------------------------------------
+# sweep axes that are not ramp-shape parameters
+# ----------------------------------------------------------------------------
+
+_AXIS_LIST = (
+    VariableSpec(
+        "mu", "1", "friction coefficient", "float64", "sets both mu_k and mu_s to this value"
+    ),
+    VariableSpec("mu_k", "1", "kinetic friction coefficient", "float64", "Coulomb kinetic friction coefficient"),
+    VariableSpec("mu_s", "1", "static friction coefficient", "float64", "Coulomb static friction coefficient"),
+    VariableSpec("x0", "m", "initial horizontal position", "float64", "x at t = 0"),
+    VariableSpec("v0", "m s-1", "initial horizontal velocity", "float64", "dx/dt at t = 0"),
+    VariableSpec("m", "kg", "mass", "float64", "mass of the point"),
+    VariableSpec("g", "m s-2", "gravitational acceleration", "float64", "gravitational acceleration"),
+)
+
+AXES: dict[str, VariableSpec] = {s.name: s for s in _AXIS_LIST}
+
+# ----------------------------------------------------------------------------
+# recorded trajectories, over dims TRACE_DIMS = ("traced", "sample")
+# ----------------------------------------------------------------------------
+
+_TRACE_LIST = (
+    _f("trace_t", "s", "time along recorded trajectory", "sampled time; NaN past the end of the trajectory"),
+    _f("trace_x", "m", "horizontal position along recorded trajectory", "sampled x; NaN past the end"),
+    _f(
+        "trace_v",
+        "m s-1",
+        "horizontal velocity along recorded trajectory",
+        "sampled dx/dt; NaN past the end",
+    ),
+    _f(
+        "trace_W_friction",
+        "J",
+        "work against friction along recorded trajectory",
+        "friction work accumulated up to the sample (paper eq. 13); NaN past the end",
+    ),
+)
+
+TRAJECTORY_RECORD: dict[str, VariableSpec] = {s.name: s for s in _TRACE_LIST}
+
+
+# ----------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------
+
+
+def axis_spec(name: str, ramp_parameters: Iterable[Any] = ()) -> VariableSpec:
+    """The spec of sweep axis ``name``: one of AXES or a ramp shape parameter.
+
+    ``ramp_parameters`` are the ramp family's parameter specs: any objects with
+    attributes ``name``, ``units``, ``long_name`` (and optionally
+    ``description``).
+    """
+    if name in AXES:
+        return AXES[name]
+    params = list(ramp_parameters)
+    for p in params:
+        if p.name == name:
+            return VariableSpec(
+                name=p.name,
+                units=str(p.units),
+                long_name=str(p.long_name),
+                dtype="float64",
+                description=str(getattr(p, "description", "") or f"ramp shape parameter {p.name}"),
+            )
+    allowed = list(AXES) + [p.name for p in params]
+    raise ConfigError(f"axis {name!r}", f"unknown axis; allowed: {', '.join(allowed)}")
+
+
+def spec_attrs(spec: VariableSpec) -> dict[str, Any]:
+    """CF attributes of one spec: units, long_name, comment (+ flags for status)."""
+    attrs: dict[str, Any] = {"units": spec.units, "long_name": spec.long_name}
+    if spec.name == "status":
+        attrs["flag_values"] = STATUS_FLAG_VALUES.copy()
+        attrs["flag_meanings"] = STATUS_FLAG_MEANINGS
+        attrs["flag_descriptions"] = STATUS_FLAG_DESCRIPTIONS
+    if spec.description:
+        attrs["comment"] = spec.description
+    return attrs
+
+
+def _lookup(name: str, ramp_parameters: Iterable[Any] = ()) -> VariableSpec:
+    if name in OUTPUTS:
+        return OUTPUTS[name]
+    if name in TRAJECTORY_RECORD:
+        return TRAJECTORY_RECORD[name]
+    try:
+        return axis_spec(name, ramp_parameters)
+    except ConfigError:
+        params = [p.name for p in ramp_parameters]
+        allowed = list(OUTPUTS) + list(TRAJECTORY_RECORD) + list(AXES) + params
+        raise ConfigError(
+            f"variable {name!r}", f"unknown variable; allowed: {', '.join(allowed)}"
+        ) from None
+
+
+def output_attrs(name: str, ramp_parameters: Iterable[Any] = ()) -> dict[str, Any]:
+    """CF attributes for variable ``name`` (an output, trace variable or axis)."""
+    return spec_attrs(_lookup(name, list(ramp_parameters)))
+
+
+def empty_output(name: str, shape) -> np.ndarray:
+    """An array for output/trace ``name`` filled with its "not computed" value.
+
+    Floats: NaN; ``status``: NOT_RUN (0); other integers: 0.
+    """
+    spec = _lookup(name)
+    fill = spec.fill_value if spec.fill_value is not None else 0
+    return np.full(shape, fill, dtype=spec.np_dtype)
+
+
+# ----------------------------------------------------------------------------
+# global attributes
+# ----------------------------------------------------------------------------
+
+_ATTR_NAME_BAD = re.compile(r"[^A-Za-z0-9_]")
+
+
+def _attr_name(key: Any) -> str:
+    name = _ATTR_NAME_BAD.sub("_", str(key))
+    if not name or not name[0].isalpha():
+        name = "a_" + name
+    return name
+
+
+def _attr_value(value: Any) -> Any:
+    """A netCDF-legal attribute value, or None to omit it.
+
+    str stays; bool -> int 0/1; numbers stay (numpy scalars keep their type); numeric
+    sequences/arrays -> numpy arrays (bool arrays -> int8); anything else -> str.
+    """
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)):
+        return int(bool(value))
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (np.integer, np.floating)):
+        return value  # keep the numpy type (e.g. an int8 valid_min)
+    if isinstance(value, int):
+        return value if -(2**63) <= value < 2**63 else str(value)
+    if isinstance(value, float):
+        return value
+    if isinstance(value, np.ndarray) or (
+        isinstance(value, (list, tuple)) and len(value) > 0
+    ):
+        arr = np.asarray(value)
+        if arr.dtype == bool:
+            return arr.astype(np.int8).ravel()
+        if arr.dtype.kind in "iuf":
+            return arr.ravel()
+        if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+            return ", ".join(value)
+        return str(value if not isinstance(value, np.ndarray) else value.tolist())
+    return str(value)
+
+
+def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
+    if isinstance(value, Mapping):
+        for k, v in value.items():
+            _flatten(f"{prefix}_{k}" if prefix else str(k), v, out)
+        return
+    v = _attr_value(value)
+    if v is not None:
+        out[_attr_name(prefix)] = v
+
+
+def netcdf_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """Flatten ``attrs`` to netCDF-legal names and values.
+
+    Nested dicts become ``outer_inner`` keys; bool -> 0/1; None -> omitted;
+    numeric lists -> numpy arrays; other objects -> str.
+    """
+    out: dict[str, Any] = {}
+    for k, v in attrs.items():
+        _flatten(str(k), v, out)
+    return out
+
+
+def utc_timestamp() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def global_attrs(
+    title: str,
+    scene_text: str,
+    history_line: str,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Global attributes of a rampwork dataset.
+
+    ``scene_text`` is the scene as TOML text (stored as ``rampwork_scene``);
+    ``extra`` settings (e.g. integrator settings, possibly nested) are
+    flattened by :func:`netcdf_attrs`. Extra keys may not replace the
+    standard attributes.
+    """
+    from rampwork._version import __version__
+
+    attrs: dict[str, Any] = {
+        "Conventions": CONVENTIONS,
+        "title": str(title),
+        "source": f"rampwork {__version__}",
+        "history": f"{utc_timestamp()}: {history_line}" if history_line else utc_timestamp(),
+        "rampwork_scene": str(scene_text),
+    }
+    for k, v in netcdf_attrs(extra or {}).items():
+        if k in attrs:
+            raise ValueError(f"global_attrs: extra attribute {k!r} would replace a standard one")
+        attrs[k] = v
+    return attrs
+
+
+def _check_registry() -> None:  # import-time sanity check of the tables above
+    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD):
+        for key, spec in table.items():
+            assert key == spec.name and spec.units and spec.long_name, spec
+            np.dtype(spec.dtype)
+            if spec.np_dtype.kind == "f":
+                assert spec.fill_value is None or math.isnan(spec.fill_value), spec
+
+
+_check_registry()

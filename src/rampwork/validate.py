@@ -1,0 +1,69 @@
+"""Small checks that raise :class:`~rampwork.errors.ConfigError` naming the
+parameter, the value and what is allowed.  Used by every settings object."""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+
+import numpy as np
+
+from .errors import ConfigError
+
+
+def real(where: str, value) -> float:
+    """A finite real number (bools, strings and NaN/inf refused)."""
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise ConfigError(where, f"expected a finite number, got {value!r} ({type(value).__name__})")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(where, f"must be a finite number, got {value!r}")
+    return value
+
+
+def positive(where: str, value) -> float:
+    value = real(where, value)
+    if value <= 0:
+        raise ConfigError(where, f"must be > 0, got {value!r}")
+    return value
+
+
+def nonnegative(where: str, value) -> float:
+    value = real(where, value)
+    if value < 0:
+        raise ConfigError(where, f"must be >= 0, got {value!r}")
+    return value
+
+
+def integer(where: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ConfigError(where, f"expected an integer, got {value!r} ({type(value).__name__})")
+    value = int(value)
+    if minimum is not None and value < minimum:
+        raise ConfigError(where, f"must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ConfigError(where, f"must be <= {maximum}, got {value}")
+    return value
+
+
+def choice(where: str, value, allowed) -> str:
+    allowed = tuple(allowed)
+    if not isinstance(value, str) or value not in allowed:
+        raise ConfigError(where, f"unknown value {value!r}; allowed: {', '.join(map(repr, allowed))}")
+    return value
+
+
+def real_array(where: str, values) -> np.ndarray:
+    """A non-empty 1-D array of finite floats."""
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(where, f"expected a list of finite numbers, got {values!r}") from None
+    if array.ndim == 0:
+        array = array.reshape(1)
+    if array.ndim != 1 or array.size == 0:
+        raise ConfigError(where, f"expected a non-empty 1-D list of numbers, got shape {array.shape}")
+    bad = ~np.isfinite(array)
+    if bad.any():
+        raise ConfigError(where, f"must be finite, got {array[bad][0]!r} at index {int(np.argmax(bad))}")
+    return array

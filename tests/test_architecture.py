@@ -1,0 +1,91 @@
+"""Layering contract (in the spirit of import-linter): data flows one way.
+
+core (jitted, plain floats and arrays) <- ramps, schema <- scene, io <-
+scenefile, runner <- cli.  No module imports one from a higher floor, and
+``core`` imports nothing but numpy, numba and the standard library.
+"""
+
+import ast
+import pathlib
+
+import pytest
+
+PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "src" / "rampwork"
+
+#: floor of each top-level module (core/* is floor 0)
+FLOORS = {
+    "_version": 0, "errors": 0, "validate": 0, "core": 0,
+    "ramps": 1, "schema": 1,
+    "scene": 2, "io": 2, "reference": 2, "plotting": 2,
+    "scenefile": 3, "runner": 4, "simulate": 4,
+    "cli": 5, "__main__": 6, "__init__": 6,
+}
+CORE_ALLOWED_THIRD_PARTY = {"numpy", "numba", "llvmlite"}
+
+
+def _module_name(path: pathlib.Path) -> str:
+    relative = path.relative_to(PACKAGE)
+    return relative.parts[0] if len(relative.parts) > 1 else relative.stem
+
+
+def _imports(path: pathlib.Path):
+    """(absolute top-level name, rampwork module or None) for every import."""
+    tree = ast.parse(path.read_text())
+    inside_core = path.parent.name == "core"
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                top = alias.name.split(".")[0]
+                sub = alias.name.split(".")[1] if top == "rampwork" and "." in alias.name else None
+                yield top, sub
+        elif isinstance(node, ast.ImportFrom):
+            if node.level == 0:
+                parts = (node.module or "").split(".")
+                yield parts[0], parts[1] if parts[0] == "rampwork" and len(parts) > 1 else None
+            else:
+                base = "core" if (inside_core and node.level == 1) else None
+                target = (node.module or "").split(".")[0] if node.module else None
+                if base == "core":
+                    yield "rampwork", "core"
+                elif target:
+                    yield "rampwork", target
+                else:  # from . import x, y
+                    for alias in node.names:
+                        yield "rampwork", alias.name
+
+
+SOURCES = sorted(PACKAGE.rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_import_from_a_higher_floor(path):
+    module = _module_name(path)
+    assert module in FLOORS, f"{module} has no floor in the layering contract"
+    for top, sub in _imports(path):
+        if top != "rampwork" or sub is None:
+            continue
+        assert sub in FLOORS, f"{path.name} imports unknown rampwork module {sub}"
+        assert FLOORS[sub] <= FLOORS[module], (
+            f"{path.relative_to(PACKAGE)} (floor {FLOORS[module]}) imports rampwork.{sub} "
+            f"(floor {FLOORS[sub]})")
+
+
+@pytest.mark.parametrize("path", sorted((PACKAGE / "core").glob("*.py")), ids=lambda p: p.name)
+def test_core_is_pure_numerics(path):
+    import sys
+
+    for top, sub in _imports(path):
+        if top == "rampwork":
+            assert sub == "core", f"core/{path.name} imports rampwork.{sub}"
+        elif top not in sys.stdlib_module_names:
+            assert top in CORE_ALLOWED_THIRD_PARTY, f"core/{path.name} imports {top}"
+
+
+def test_jit_options_set_in_one_place():
+    """Every jitted function goes through core/jit.py (cache, no fastmath)."""
+    for path in SOURCES:
+        if path.name == "jit.py":
+            continue
+        text = path.read_text()
+        for forbidden in ("numba.njit(", "@njit", "numba.jit(", "@numba.njit", "@numba.jit"):
+            assert forbidden not in text, f"{path.relative_to(PACKAGE)} uses {forbidden}; use core.jit"
