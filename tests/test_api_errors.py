@@ -168,9 +168,8 @@ def test_sweep_too_big_for_memory():
     raises("sweep", lambda: rw.simulate(scene(), rw.Sweep.grid(x0=axis, v0=axis, mu=axis)), "split")
 
 
-@pytest.mark.xfail(strict=True, reason="BUG (cosmetic): runner.plan_run and validate.real_array format "
-                   "values with repr of numpy scalars, so messages read 'np.float64(-0.75)'")
 def test_messages_show_plain_numbers():
+    """Values appear as plain numbers, not as reprs of numpy scalars ('np.float64(...)')."""
     for call in (lambda: rw.simulate(scene(), rw.Sweep.grid(x0=[0.2, -0.75])),
                  lambda: rw.Sweep.grid(x0=[0.5, NAN]),
                  lambda: rw.simulate(scene(), rw.Sweep.cases(mu_k=[0.3], mu_s=[0.2]))):

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import rampwork as rw
-from rampwork.core.status import EXITED, LIFTED_OFF, STUCK, TIMEOUT
+from rampwork.core.status import DIVERGED, EXITED, LIFTED_OFF, STUCK, TIMEOUT
 
 G = 9.81
 METHODS = ("euler", "semi_implicit_euler", "rk4")
@@ -132,10 +132,11 @@ def test_straight_ramp_closed_form(method):
         # paper eq. (1): W = mu m g |dx| on any linear ramp, whatever the slope.
         # Euler and RK4 integrate mu g |v| with the same weights as x, so this
         # holds to rounding; semi-implicit Euler takes x with the new v and the
-        # work with the old one: off by mu g a_max h t.
+        # work with the old one: off by mu g a sum(h_i^2) <= mu g a_max h t_end.
         w = val(got, "W_friction")
         w_lin = mu_k * G * abs(val(got, "x_end") - x0)
-        w_tol = (mu_k * G * exact["a_max"] * dt * exact["t"] if method == "semi_implicit_euler"
+        t_run = max(exact["t"], val(got, "t_end"))
+        w_tol = (mu_k * G * exact["a_max"] * dt * t_run if method == "semi_implicit_euler"
                  else 1e-12 * max(1.0, w))
         assert abs(w - w_lin) <= w_tol + 1e-14, (case, w, w_lin)
         assert abs(val(got, "W_linear") - mu_k * G * abs(exact["x"] - x0)) <= mu_k * G * tol["x"] + 1e-12
@@ -151,7 +152,7 @@ def test_straight_ramp_mass_and_gravity_sweep():
     slope, x0, v0, mu_k, mu_s = STRAIGHT_CASES[1]
     scene = straight_scene(x0=x0, v0=v0, friction=rw.Friction(mu_k, mu_s)).replace(
         ramp=rw.Ramp.create("straight", slope=slope, domain=STRAIGHT_DOMAIN))
-    masses, gravities = [0.5, 3.0], [9.81, 1.62, 24.79]
+    masses, gravities = [0.5, 3.0], [9.81, 1.62, 24.79]  # on the moon it slides out at x_max
     ds = run(scene, rw.Sweep.grid(m=masses, g=gravities))
     for j, g in enumerate(gravities):
         exact = straight_exact(slope, x0, v0, mu_k, mu_s, g=g)
@@ -160,11 +161,13 @@ def test_straight_ramp_mass_and_gravity_sweep():
         assert ds.t_end.isel(g=j).values[0] == ds.t_end.isel(g=j).values[1]
         for i, m in enumerate(masses):
             got = ds.isel(m=i, g=j)
-            assert val(got, "status") == STUCK
+            assert val(got, "status") == exact["status"]
             assert val(got, "x_end") == pytest.approx(exact["x"], rel=2e-12)
             assert val(got, "t_end") == pytest.approx(exact["t"], rel=2e-12)
+            assert val(got, "v_end") == pytest.approx(exact["v"], rel=2e-12, abs=1e-12)
             assert val(got, "W_friction") == pytest.approx(mu_k * m * g * abs(exact["x"] - x0), rel=2e-12)
             assert val(got, "W_energy") == pytest.approx(val(got, "W_friction"), rel=1e-11)
+    assert {int(s) for s in ds.status.values.ravel()} == {STUCK, EXITED}
 
 
 # ------------------------------------------------------------------------------
@@ -203,7 +206,8 @@ def test_launch_uphill_sticks_or_slides_back(method):
     assert abs(val(back, "v_end") - exact["v"]) <= tol["v"]
     path = 2 * x_top - STRAIGHT_DOMAIN[0]
     assert abs(val(back, "path_length_x") - path) <= 2 * tol["x"]
-    w_tol = (0.2 * G * exact["a_max"] * dt * exact["t"] if method == "semi_implicit_euler" else 0.0)
+    t_run = max(exact["t"], val(back, "t_end"))
+    w_tol = (0.2 * G * exact["a_max"] * dt * t_run if method == "semi_implicit_euler" else 0.0)
     assert abs(val(back, "W_friction") - 0.2 * G * path) <= w_tol + 0.2 * G * 2 * tol["x"] + 1e-11
     assert abs(val(back, "W_path") - 0.2 * G * path) <= 0.2 * G * 2 * tol["x"] + 1e-11
 
@@ -241,8 +245,8 @@ def test_energy_balance_rk4_on_curved_ramps():
                   friction=rw.Friction(0.0, 0.5), x0=-1.5),
          rw.Sweep.grid(x0=[-1.5, 0.2], v0=[-1.0, 0.5, 2.0], mu_k=[0.05, 0.2])),
         (rw.Scene(ramp=rw.Ramp.create("cycloid", radius=0.8, domain=(-2.3, 2.3)),
-                  friction=rw.Friction(0.0, 0.5), x0=2.0),
-         rw.Sweep.grid(x0=[-2.0, 1.0], v0=[0.0, 1.5], mu_k=[0.05, 0.2])),
+                  x0=2.0),
+         rw.Sweep.grid(x0=[-2.0, 1.0], v0=[0.0, 1.5], mu=[0.05, 0.2])),
     ]
     for scene, sweep in scenes:
         ds = run(scene, sweep)
@@ -375,7 +379,11 @@ def test_two_sided_bead_passes_over_the_dome(reference):
     assert ref["status"] == EXITED
     for name in ("t_end", "v_end", "W_friction"):
         assert val(bead, name) == pytest.approx(ref[name], rel=1e-8), name
-    assert abs(val(bead, "energy_balance_error")) <= 1e-8 * val(bead, "W_friction")
+    # RK4's balance error is ~1e-8 of the energy that changes hands (here mostly
+    # the kinetic energy at the exit, where the wire is steep)
+    _, fp_end, _ = DOME.evaluate(val(bead, "x_end"))
+    kinetic_end = 0.5 * val(bead, "v_end") ** 2 * (1 + fp_end**2)
+    assert abs(val(bead, "energy_balance_error")) <= 1e-8 * (val(bead, "W_friction") + kinetic_end)
     ref_one = reference.reference_trajectory(one)
     assert val(block, "x_lift_off") == pytest.approx(ref_one["x_lift_off"], abs=1e-9)
 
@@ -515,10 +523,10 @@ def test_recorded_traces_on_a_curved_ramp_end_where_the_runs_end():
 RANDOM_FAMILIES = {
     # family: (ramp arguments, random ramp parameter ranges)
     "quadratic": (dict(curvature=1.0, slope=0.2, domain=(-2.0, 2.0)),
-                  dict(curvature=(-1.5, 2.5), slope=(-0.4, 0.4))),
-    "circular_bowl": (dict(radius=2.0, domain=(-1.0, 1.0)), dict(radius=(1.2, 3.0))),
+                  dict(curvature=(-1.0, 3.0), slope=(-0.3, 0.3))),
+    "circular_bowl": (dict(radius=2.0, domain=(-1.0, 1.0)), dict(radius=(1.1, 3.0))),
     "sine": (dict(slope=0.2, amplitude=0.1, wavenumber=3.0, domain=(-2.0, 2.0)),
-             dict(amplitude=(0.05, 0.3), slope=(-0.3, 0.5))),
+             dict(amplitude=(0.05, 0.3), slope=(-0.1, 0.3))),
     "cycloid": (dict(radius=0.8, domain=(-1.4, 1.4)), dict(radius=(0.5, 1.0))),
 }
 N_PER_FAMILY = 5
@@ -543,8 +551,8 @@ def _ill_conditioned(ref, reference_module, scene, kwargs):
     if scene.contact == "one_sided":
         dense = reference_module.reference_trajectory(scene, keep_segments=True, **kwargs)
         slope_curvature = reference_module.ramp_functions(kwargs.get("ramp", scene.ramp))[1]
-        n_min = min(G + y[1] ** 2 * slope_curvature(y[0])[1]
-                    for _, ys in dense["segments"] for y in ys.T)
+        n_min = min((G + y[1] ** 2 * slope_curvature(y[0])[1]
+                     for _, ys in dense["segments"] for y in ys.T), default=G)
         if ref["status"] != LIFTED_OFF and n_min < 1e-6:
             return f"normal term grazes 0 (min {n_min:.1e})"
     return None
@@ -557,10 +565,12 @@ def test_random_scenes_agree_with_the_reference(family, reference):
     n = N_PER_FAMILY
     lo, hi = ramp_args["domain"]
     width = hi - lo
-    mu_k = rng.uniform(0.0, 0.5, n)
+    mu_k = rng.uniform(0.0, 0.25, n)
+    # half the paper's case mu_s = mu_k, half with static friction above it
     mu_s = np.where(rng.uniform(size=n) < 0.5, mu_k, mu_k + rng.uniform(0.0, 0.3, n))
+    mu_k[0] = mu_s[0] = 0.0  # one frictionless run: many reversals or a timeout
     columns = dict(mu_k=mu_k, mu_s=mu_s, x0=rng.uniform(lo + 0.1 * width, hi - 0.1 * width, n),
-                   v0=rng.uniform(-3.0, 3.0, n))
+                   v0=rng.uniform(-2.5, 2.5, n))
     for name, (a, b) in ranges.items():
         columns[name] = rng.uniform(a, b, n)
     scene = rw.Scene(ramp=rw.Ramp.create(family, **ramp_args), integrator=rw.Integrator("rk4", 1e-4),
@@ -580,15 +590,14 @@ def test_random_scenes_agree_with_the_reference(family, reference):
         where = (family, i, {k: float(v[i]) for k, v in columns.items()})
         assert val(got, "status") == ref["status"], where
         assert val(got, "n_reversals") == ref["n_reversals"], where
-        for name in ("x_end", "t_end", "W_friction"):
-            assert abs(val(got, name) - ref[name]) <= 1e-6 * (1.0 + abs(ref[name])), (name, where)
+        # RK4 at dt = 1e-4 is good to ~1e-12 here; 1e-9 leaves room for long timeouts
+        for name in ("x_end", "t_end", "v_end", "W_friction"):
+            assert abs(val(got, name) - ref[name]) <= 1e-9 * (1.0 + abs(ref[name])), (name, where)
         if ref["status"] == LIFTED_OFF:
-            assert val(got, "x_lift_off") == pytest.approx(ref["x_lift_off"], abs=1e-6)
+            assert val(got, "x_lift_off") == pytest.approx(ref["x_lift_off"], abs=1e-9)
         else:
             assert math.isnan(val(got, "x_lift_off"))
         if ref["status"] == STUCK:
             assert val(got, "v_end") == 0.0
         compared += 1
     assert compared >= n - 1, skipped
-    # the draw should exercise more than one outcome per family
-    assert len(set(ds.status.values.tolist()) - {TIMEOUT}) >= 1

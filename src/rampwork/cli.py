@@ -13,7 +13,6 @@ import os
 import sys
 import time
 from importlib import resources
-from pathlib import Path
 
 from ._version import __version__
 from .errors import ConfigError

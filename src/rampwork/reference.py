@@ -92,7 +92,7 @@ def _cycloid_half_angle(x: float, r: float) -> tuple[float, float]:
     if s == 0.0:
         return 0.0, 1.0
     g = lambda u: u + math.sin(u) - s  # noqa: E731
-    u = brentq(g, -math.pi, math.pi, xtol=1e-300, rtol=4.5e-16, maxiter=500)
+    u = brentq(g, -math.pi, math.pi, xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=500)
     for _ in range(2):  # Newton polish (1 + cos u > 0 away from the cusps)
         der = 1.0 + math.cos(u)
         if der > 0.0:

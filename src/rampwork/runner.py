@@ -92,13 +92,13 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     outside = (x0 < lo) | (x0 > hi)
     if outside.any():
         where = "sweep.x0" if "x0" in axes else "x0"
-        raise ConfigError(where, f"{x0[outside][0]!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
+        raise ConfigError(where, f"{float(x0[outside][0])!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
     for name in ("mu", "mu_k", "mu_s"):
         if name in axes and min(axes[name]) < 0:
-            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {min(axes[name])!r}")
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
     for name in ("m", "g"):
         if name in axes and min(axes[name]) <= 0:
-            raise ConfigError(f"sweep.{name}", f"must be > 0, got {min(axes[name])!r}")
+            raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
     _check_static_friction(scene, sweep)
 
     # ramp parameters: every combination that occurs must be a valid ramp
@@ -131,10 +131,10 @@ def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
         if bad.any():
             i = int(np.argmax(bad))
             raise ConfigError("sweep.mu_s", f"must be >= mu_k in every case; case {i} has "
-                              f"mu_s = {mu_s[i]!r} < mu_k = {mu_k[i]!r}")
+                              f"mu_s = {float(mu_s[i])!r} < mu_k = {float(mu_k[i])!r}")
     elif mu_s.min() < mu_k.max():
         raise ConfigError("sweep.mu_s" if "mu_s" in axes else "friction.mu_s",
-                          f"must be >= mu_k: mu_s = {mu_s.min()!r} < mu_k = {mu_k.max()!r}; "
+                          f"must be >= mu_k: mu_s = {float(mu_s.min())!r} < mu_k = {float(mu_k.max())!r}; "
                           "sweep 'mu' to set both together")
 
 

@@ -15,7 +15,7 @@ def real(where: str, value) -> float:
     """A finite real number (bools, strings and NaN/inf refused)."""
     if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
         raise ConfigError(where, f"expected a finite number, got {value!r} ({type(value).__name__})")
-    value = float(value)
+    value = float(value)  # also turns numpy scalars into plain floats for messages
     if not math.isfinite(value):
         raise ConfigError(where, f"must be a finite number, got {value!r}")
     return value
@@ -65,5 +65,5 @@ def real_array(where: str, values) -> np.ndarray:
         raise ConfigError(where, f"expected a non-empty 1-D list of numbers, got shape {array.shape}")
     bad = ~np.isfinite(array)
     if bad.any():
-        raise ConfigError(where, f"must be finite, got {array[bad][0]!r} at index {int(np.argmax(bad))}")
+        raise ConfigError(where, f"must be finite, got {float(array[bad][0])!r} at index {int(np.argmax(bad))}")
     return array

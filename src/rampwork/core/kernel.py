@@ -35,10 +35,11 @@ from .steppers import STEPPERS
 # T, XM, SM: time, position and step count at the start of the current mode
 # (time and path are derived from them, which keeps the hot loop lean);
 # LIMIT: step count at which t_max would be passed; BEFORE: step count at the
-# last scan (a lane that advanced less than N_SUBSTEPS has a pending event).
+# last scan (a lane that advanced less than N_SUBSTEPS has a pending event);
+# CASCADE: events resolved since the lane last took a full step.
 (X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
- STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0) = range(28)
-N_FIELDS = 28
+ STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE) = range(29)
+N_FIELDS = 29
 
 # --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
 IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)
@@ -62,6 +63,10 @@ N_SUBSTEPS = 16
 N_RANGE_SAMPLES = 33
 #: divergence: speed above this multiple of the energy bound
 SPEED_BOUND_FACTOR = 10.0
+#: divergence: this many events in a row without a full step between them.
+#: With a step far too large the stages sample garbage, and "events" can be
+#: found again and again a sliver into each step: progress stalls.
+MAX_EVENT_CASCADE = 100
 
 # bound per scene by build_kernel (compile-time constants)
 step = ramp_height = ramp_slope_curvature = None
@@ -71,14 +76,14 @@ CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-eva
 LANES = 64  # lanes per block
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
- scan_lanes) = (None,) * 15
+ scan_lanes, compact_lanes) = (None,) * 16
 
 
 # ------------------------------------------------------------------------------
 # vector part
 # ------------------------------------------------------------------------------
-def _advance_lanes(lanes, settings, shared, n_substeps):
-    """``n_substeps`` fixed steps on every lane.
+def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
+    """``n_substeps`` fixed steps on lanes 0 .. n_active-1.
 
     Branch-free per lane so that it vectorises: the new state is committed only
     where no event condition fired (a select, not a branch).  A lane whose step
@@ -92,7 +97,7 @@ def _advance_lanes(lanes, settings, shared, n_substeps):
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
     for _ in range(n_substeps):
-        for i in range(LANES):
+        for i in range(n_active):
             x = lanes[X * LANES + i]
             v = lanes[V * LANES + i]
             d = lanes[D * LANES + i]
@@ -320,6 +325,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[K * LANES + i] = 0.0
     lanes[STEPS * LANES + i] = 0.0
     lanes[NREV * LANES + i] = 0.0
+    lanes[CASCADE * LANES + i] = 0.0
     lanes[D * LANES + i] = 0.0
     rebase(lanes, i, 0.0, settings)
     lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
@@ -358,6 +364,11 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     h = settings[SET_DT]
     t_max = settings[SET_TMAX]
     t_now = current_time(lanes, i, h)
+    lanes[CASCADE * LANES + i] += 1.0
+    if lanes[CASCADE * LANES + i] > MAX_EVENT_CASCADE:
+        rebase(lanes, i, t_now, settings)
+        finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
+        return False
     if not CARRY_SLOPE:
         # the vector loop re-evaluated f', f'' each step without storing them
         fp, fpp = ramp_slope_curvature(lanes[X * LANES + i], lanes[P0 * LANES + i],
@@ -367,15 +378,17 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         lanes[FPP * LANES + i] = fpp
     # 1. the largest usable step: where the state stays finite and bounded
     h_end = h
-    if event_value(EV_DIVERGED, lanes, i, h, settings, shared) <= 0.0:
-        h_end = locate_event(EV_DIVERGED, lanes, i, h, -1.0, settings, shared)
+    diverged = np.int64(EV_DIVERGED)  # one argument type for every call: one compilation
+    if event_value(diverged, lanes, i, h, settings, shared) <= 0.0:
+        h_end = locate_event(diverged, lanes, i, h, -1.0, settings, shared)
         h_end = h_end * (1.0 - 1e-12)  # the first bad size; step back to a good one
-        while h_end > 0.0 and event_value(EV_DIVERGED, lanes, i, h_end, settings, shared) <= 0.0:
+        while h_end > 0.0 and event_value(diverged, lanes, i, h_end, settings, shared) <= 0.0:
             h_end *= 0.5
     # 2. the earliest event within [0, h_end]
     best_kind = EV_NONE
     best_h = h_end
-    for kind in (EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL):
+    for kind in (np.int64(EV_EXIT_LO), np.int64(EV_EXIT_HI), np.int64(EV_CONTACT),
+                 np.int64(EV_REVERSAL)):
         if h_end <= 0.0 or (kind == EV_CONTACT and not CHECK_CONTACT):
             continue
         value = event_value(kind, lanes, i, h_end, settings, shared)
@@ -391,6 +404,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     if best_kind == EV_NONE and h_end >= h:
         # frozen only by the step limit, with a rounding's worth of time left
         apply_step(lanes, i, h, shared)
+        lanes[CASCADE * LANES + i] = 0.0
         rebase(lanes, i, t_now + h, settings)
         if not CARRY_SLOPE:
             return True
@@ -457,16 +471,17 @@ def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
     return next_j
 
 
-def _scan_lanes(lanes, settings, outputs, shared, n_substeps):
+def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
     """After ``n_substeps`` vector steps: resolve lanes with a pending event and
-    lanes past the speed bound.  Returns the lanes that need a new trajectory
-    as a count, having marked them empty."""
+    lanes past the speed bound.  Returns how many lanes finished (now empty)."""
     freed = 0
-    for i in range(LANES):
+    for i in range(n_active):
         if lanes[TRAJ * LANES + i] < 0.0:
             continue
-        pending = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i] < n_substeps
-        if not pending:
+        advanced = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i]
+        if advanced > 0.0:
+            lanes[CASCADE * LANES + i] = 0.0
+        if advanced >= n_substeps:
             v = lanes[V * LANES + i]
             if v * v <= lanes[VLIM2 * LANES + i]:
                 lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
@@ -482,6 +497,25 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps):
     return freed
 
 
+def _compact_lanes(lanes):
+    """Move running lanes to the front, in order; returns how many run.
+
+    Used once a tile has no trajectories left to load, so that the vector loop
+    stops stepping empty lanes at the tile's tail (and on small sweeps).  A
+    trajectory's arithmetic does not depend on its lane, so results do not
+    change."""
+    running = 0
+    for i in range(LANES):
+        if lanes[TRAJ * LANES + i] < 0.0:
+            continue
+        if running != i:
+            for field in range(N_FIELDS):
+                lanes[field * LANES + running] = lanes[field * LANES + i]
+            make_empty(lanes, i)
+        running += 1
+    return running
+
+
 def _run_tile(start, stop, inputs, settings, outputs, shared):
     """Run trajectories start..stop-1 through one block of LANES lanes."""
     lanes = np.zeros(N_FIELDS * LANES)
@@ -490,22 +524,19 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
     next_j = start
     for i in range(LANES):
         next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
-    while True:
-        for i in range(LANES):
+    n_active = LANES if next_j < stop else compact_lanes(lanes)
+    while n_active > 0:
+        for i in range(n_active):
             lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
-        advance_lanes(lanes, settings, shared, N_SUBSTEPS)
-        freed = scan_lanes(lanes, settings, outputs, shared, N_SUBSTEPS)
-        if freed > 0 and next_j < stop:
+        advance_lanes(lanes, settings, shared, N_SUBSTEPS, n_active)
+        if scan_lanes(lanes, settings, outputs, shared, N_SUBSTEPS, n_active) == 0:
+            continue
+        if next_j < stop:
             for i in range(LANES):
                 if lanes[TRAJ * LANES + i] < 0.0:
                     next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
-        running = False
-        for i in range(LANES):
-            if lanes[TRAJ * LANES + i] >= 0.0:
-                running = True
-                break
-        if not running:
-            break
+        if next_j >= stop:
+            n_active = compact_lanes(lanes)
 
 
 def _run_batch(inputs, settings, outputs, shared, tile_size):
@@ -538,8 +569,10 @@ def _trace_one(j, inputs, settings, shared, every, trace):
         count = 1
     while running:
         lanes[BEFORE * LANES] = lanes[STEPS * LANES]
-        advance_lanes(lanes, settings, shared, 1)
+        advance_lanes(lanes, settings, shared, 1, 1)
         event = lanes[STEPS * LANES] == lanes[BEFORE * LANES]
+        if not event:
+            lanes[CASCADE * LANES] = 0.0
         if event:
             running = resolve_lane(lanes, 0, settings, outputs, shared)
         if count < max_samples and (event or np.int64(lanes[STEPS * LANES]) % every == 0):
@@ -592,7 +625,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         ("event_value", _event_value), ("locate_event", _locate_event),
         ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),
         ("resolve_lane", _resolve_lane), ("fill_lane", _fill_lane),
-        ("advance_lanes", _advance_lanes), ("scan_lanes", _scan_lanes), ("run_tile", _run_tile),
+        ("advance_lanes", _advance_lanes), ("scan_lanes", _scan_lanes),
+        ("compact_lanes", _compact_lanes), ("run_tile", _run_tile),
     ):
         add(key, function)
     run_batch = add("run_batch", _run_batch, parallel=True)
