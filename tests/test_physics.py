@@ -388,6 +388,27 @@ def test_two_sided_bead_passes_over_the_dome(reference):
     assert val(block, "x_lift_off") == pytest.approx(ref_one["x_lift_off"], abs=1e-9)
 
 
+def test_contact_force_criterion_not_the_papers(reference):
+    """DESIGN §1: lift-off is n = g + v^2 f'' <= 0, not the paper's criterion
+    (26) (the ramp's vertical acceleration y'' <= -g), which differs when
+    d mu_k f' > 1.  Sliding up a steep concave ramp with large friction, the
+    paper's test fires at the start while the surface still pushes (n > 0):
+    the block must not lift off."""
+    ramp = rw.Ramp.create("quadratic", curvature=-2.0, slope=3.0, domain=(-1.0, 1.5))
+    scene = rw.Scene(ramp=ramp, friction=rw.Friction(1.5, 2.0), x0=-0.5, v0=2.0,
+                     integrator=rw.Integrator("rk4", 1e-4))
+    _, fp, fpp = ramp.evaluate(scene.x0)
+    n = G + scene.v0**2 * fpp
+    a = -n * (fp + 1.5) / (1 + fp**2)
+    assert n > 0 and fp * a + fpp * scene.v0**2 <= -G  # the paper's criterion says lift-off
+    ds = run(scene)
+    ref = reference.reference_trajectory(scene)
+    assert val(ds, "status") == ref["status"] == EXITED
+    assert math.isnan(val(ds, "x_lift_off"))
+    assert val(ds, "n_reversals") == ref["n_reversals"] == 1
+    assert val(ds, "W_friction") == pytest.approx(ref["W_friction"], rel=1e-9)
+
+
 # ------------------------------------------------------------------------------
 # convexity: the paper's claims
 # ------------------------------------------------------------------------------
@@ -466,6 +487,59 @@ def test_sticking_is_exact_and_does_not_creep(method):
         else:
             fp = scene.ramp.evaluate(short.x_end.values)[1]
         assert np.all(np.abs(fp) <= sweep.values("mu_s"))
+
+
+def test_hard_cases_against_the_reference(reference):
+    """DESIGN §4: starts on the domain's edges, and a long oscillation with
+    many reversals that ends stuck (rest decisions >= 3e-3 from threshold)."""
+    scene = bowl_scene(t_max=100.0)
+    edges = rw.Sweep.cases(x0=[0.9, 0.9, -0.9, -0.9], v0=[1.0, -1.0, -1.0, 0.0])
+    ds = run(scene, edges)
+    assert ds.status.values[0] == ds.status.values[2] == EXITED  # moving out: ends at once
+    assert ds.t_end.values[0] == ds.t_end.values[2] == 0.0
+    assert ds.W_friction.values[0] == ds.W_friction.values[2] == 0.0
+    for i in (1, 3):  # moving in, and from rest on the rim
+        ref = reference.reference_trajectory(scene, x0=float(ds.x0[i]), v0=float(ds.v0[i]))
+        assert ds.status.values[i] == ref["status"] and ds.n_reversals.values[i] == ref["n_reversals"]
+        assert ds.x_end.values[i] == pytest.approx(ref["x_end"], abs=1e-10)
+        assert ds.W_friction.values[i] == pytest.approx(ref["W_friction"], rel=1e-10)
+    long = scene.replace(friction=rw.Friction(0.01, 0.02), x0=0.85)
+    ds = run(long)
+    ref = reference.reference_trajectory(long)
+    assert ref["status"] == STUCK and ref["n_reversals"] == 41
+    assert min(abs(e["margin"]) for e in ref["events"] if "margin" in e) > 3e-3
+    assert val(ds, "status") == STUCK and val(ds, "n_reversals") == 41 and val(ds, "v_end") == 0.0
+    assert val(ds, "x_end") == pytest.approx(ref["x_end"], abs=1e-9)
+    assert val(ds, "t_end") == pytest.approx(ref["t_end"], rel=1e-9)
+    assert val(ds, "W_friction") == pytest.approx(ref["W_friction"], rel=1e-9)
+    assert val(ds, "W_path") == pytest.approx(ref["W_path"], rel=1e-9)
+
+
+@pytest.mark.parametrize("method", ["euler", "semi_implicit_euler", "rk4"])
+def test_step_much_too_large_is_flagged_or_sane(method):
+    """DESIGN §4: with a step much too large, either status diverged, or
+    finite outputs with W_f >= 0 and the mechanical energy not risen (friction
+    acts: the start is at rest at x0 = 0.7, and nothing can climb past it)."""
+    bad = []
+    for dt in (0.1, 0.2, 0.5, 1.0, 5.0):
+        ds = run(bowl_scene(method, dt))
+        outputs = {name: val(ds, name) for name in ("t_end", "x_end", "v_end", "W_friction", "W_energy")}
+        assert all(math.isfinite(v) for v in outputs.values()), (dt, outputs)
+        if val(ds, "status") == DIVERGED:
+            continue
+        if not (outputs["W_friction"] >= 0.0 and outputs["W_energy"] >= -1e-9 and abs(outputs["x_end"]) <= 0.7):
+            bad.append((dt, val(ds, "status"), outputs))
+    assert not bad, bad
+
+
+def test_diverged_reports_the_time_of_its_state():
+    """Euler at dt = 5 s on a 1 m bowl: the first step (x stays, v = -22 m/s)
+    is taken, the second goes bad.  The reported state is the one after
+    ``steps`` steps, at t = steps * dt (no event happened before)."""
+    ds = run(bowl_scene("euler", 5.0))
+    assert val(ds, "status") == DIVERGED
+    assert val(ds, "steps") >= 1 and val(ds, "v_end") != 0.0
+    assert val(ds, "t_end") == val(ds, "steps") * 5.0
 
 
 def test_bitwise_identical_whatever_the_thread_count():
@@ -599,5 +673,7 @@ def test_random_scenes_agree_with_the_reference(family, reference):
             assert math.isnan(val(got, "x_lift_off"))
         if ref["status"] == STUCK:
             assert val(got, "v_end") == 0.0
+        if ref["status"] == TIMEOUT:
+            assert val(got, "t_end") == T_MAX_RANDOM
         compared += 1
     assert compared >= n - 1, skipped

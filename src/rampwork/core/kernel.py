@@ -36,10 +36,11 @@ from .steppers import STEPPERS
 # (time and path are derived from them, which keeps the hot loop lean);
 # LIMIT: step count at which t_max would be passed; BEFORE: step count at the
 # last scan (a lane that advanced less than N_SUBSTEPS has a pending event);
-# CASCADE: events resolved since the lane last took a full step.
+# CASCADE: events resolved since the lane last took a full step; VLIM2, ELIM:
+# the divergence bounds on v^2 and on the mechanical energy.
 (X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
- STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE) = range(29)
-N_FIELDS = 29
+ STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM) = range(30)
+N_FIELDS = 30
 
 # --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
 IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)
@@ -61,8 +62,13 @@ EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOU
 N_SUBSTEPS = 16
 #: samples of f over the domain used for the divergence speed bound
 N_RANGE_SAMPLES = 33
-#: divergence: speed above this multiple of the energy bound
+#: divergence inside a step: speed above this multiple of the energy bound
 SPEED_BOUND_FACTOR = 10.0
+#: divergence at scans and at the end: mechanical energy risen by more than this
+#: share of the energy scale (start kinetic energy plus the ramp's height range
+#: times g).  Friction, drag and a fixed ramp can only remove energy, so only a
+#: step far too large gets there (explicit Euler's energy grows every step).
+ENERGY_RISE_FACTOR = 0.5
 #: divergence: this many events in a row without a full step between them.
 #: With a step far too large the stages sample garbage, and "events" can be
 #: found again and again a sliver into each step: progress stalls.
@@ -76,7 +82,7 @@ CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-eva
 LANES = 64  # lanes per block
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
- scan_lanes, compact_lanes) = (None,) * 16
+ scan_lanes, compact_lanes, energy_now) = (None,) * 17
 
 
 # ------------------------------------------------------------------------------
@@ -148,6 +154,18 @@ def _rebase(lanes, i, t_now, settings):
     lanes[SM * LANES + i] = lanes[STEPS * LANES + i]
     remaining = math.floor((settings[SET_TMAX] - t_now) / settings[SET_DT])
     lanes[LIMIT * LANES + i] = lanes[STEPS * LANES + i] + max(remaining, 0.0)
+
+
+def _energy_now(lanes, i, shared):
+    """Mechanical energy per unit mass of lane i's current state."""
+    x = lanes[X * LANES + i]
+    p0 = lanes[P0 * LANES + i]
+    p1 = lanes[P1 * LANES + i]
+    p2 = lanes[P2 * LANES + i]
+    p3 = lanes[P3 * LANES + i]
+    fp, _fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    f = ramp_height(x, p0, p1, p2, p3, shared)
+    return specific_energy(f, fp, lanes[V * LANES + i], lanes[G * LANES + i])
 
 
 def _apply_step(lanes, i, h, shared):
@@ -263,6 +281,8 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
     f = ramp_height(x, p0, p1, p2, p3, shared)
     energy_end = specific_energy(f, fp, v, lanes[G * LANES + i])
+    if not energy_end <= lanes[ELIM * LANES + i]:
+        status = st.DIVERGED  # whatever event ended it, the energy says the step was too large
     path = lanes[S * LANES + i] + lanes[D * LANES + i] * (x - lanes[XM * LANES + i])
     outputs[OUT_STATUS, j] = status
     outputs[OUT_T, j] = lanes[T * LANES + i]
@@ -336,8 +356,9 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
         fs = ramp_height(x_lo + (x_hi - x_lo) * k / (N_RANGE_SAMPLES - 1), p0, p1, p2, p3, shared)
         f_min = min(f_min, fs)
         f_max = max(f_max, fs)
-    lanes[VLIM2 * LANES + i] = (SPEED_BOUND_FACTOR ** 2
-                                * (v * v * (1.0 + fp * fp) + 2.0 * g * (f_max - f_min)) + 1e-12)
+    energy_scale = 0.5 * v * v * (1.0 + fp * fp) + g * (f_max - f_min)
+    lanes[VLIM2 * LANES + i] = SPEED_BOUND_FACTOR ** 2 * 2.0 * energy_scale + 1e-12
+    lanes[ELIM * LANES + i] = lanes[E0 * LANES + i] + ENERGY_RISE_FACTOR * energy_scale + 1e-12
 
     n = normal_term(v, fpp, g)
     lanes[SN * LANES + i] = 1.0 if (ONE_SIDED or n >= 0.0) else -1.0
@@ -416,6 +437,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         return True
     if best_kind == EV_NONE:
         # the state goes bad within this step and no event comes first
+        rebase(lanes, i, t_now, settings)
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
 
@@ -482,8 +504,7 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
         if advanced > 0.0:
             lanes[CASCADE * LANES + i] = 0.0
         if advanced >= n_substeps:
-            v = lanes[V * LANES + i]
-            if v * v <= lanes[VLIM2 * LANES + i]:
+            if energy_now(lanes, i, shared) <= lanes[ELIM * LANES + i]:
                 lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
                 continue
             rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
@@ -621,6 +642,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     add("step", template)
     for key, function in (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
+        ("energy_now", _energy_now),
         ("set_mode", _set_mode), ("start_value", _start_value),
         ("event_value", _event_value), ("locate_event", _locate_event),
         ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),

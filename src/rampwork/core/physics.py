@@ -6,13 +6,13 @@ the contact sign ``s_n = sign(n)`` are held fixed, and both enter only through
 side below is smooth up to the next event.
 """
 
-from .jit import jit
+from .jit import fma, jit
 
 
 @jit
 def normal_term(v, fpp, g):
     """n = g + v^2 f''; the normal force is m n / sqrt(1 + f'^2) (paper eq. 11)."""
-    return g + v * v * fpp
+    return fma(v * v, fpp, g)
 
 
 @jit
@@ -20,7 +20,7 @@ def acceleration(n, fp, q):
     """dv/dt = -(f' n + d mu_k |n|) / (1 + f'^2), with |n| = s_n n and q = d mu_k s_n.
 
     For n > 0 this is the paper's eq. (10)."""
-    return -n * (fp + q) / (1.0 + fp * fp)
+    return -n * (fp + q) / fma(fp, fp, 1.0)
 
 
 @jit

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 
-from .jit import jit
+from .jit import fma, jit
 
 # ---------------------------------------------------------------------------
 # straight: y = height + slope * x            p0 = slope, p1 = height
@@ -58,7 +58,7 @@ def quadratic_height(x, p0, p1, p2, p3, shared):
 
 @jit
 def quadratic_slope_curvature(x, p0, p1, p2, p3, shared):
-    return p1 + p0 * x, p0
+    return fma(p0, x, p1), p0
 
 
 # ---------------------------------------------------------------------------
