@@ -64,7 +64,7 @@ N_SUBSTEPS = 16
 N_RANGE_SAMPLES = 33
 #: divergence inside a step: speed above this multiple of the energy bound
 SPEED_BOUND_FACTOR = 10.0
-#: divergence at scans and at the end: mechanical energy risen by more than this
+#: divergence at the end: mechanical energy risen by more than this
 #: share of the energy scale (start kinetic energy plus the ramp's height range
 #: times g).  Friction, drag and a fixed ramp can only remove energy, so only a
 #: step far too large gets there (explicit Euler's energy grows every step).
@@ -82,7 +82,7 @@ CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-eva
 LANES = 64  # lanes per block
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
- scan_lanes, compact_lanes, energy_now) = (None,) * 17
+ scan_lanes, compact_lanes, event_values) = (None,) * 17
 
 
 # ------------------------------------------------------------------------------
@@ -156,18 +156,6 @@ def _rebase(lanes, i, t_now, settings):
     lanes[LIMIT * LANES + i] = lanes[STEPS * LANES + i] + max(remaining, 0.0)
 
 
-def _energy_now(lanes, i, shared):
-    """Mechanical energy per unit mass of lane i's current state."""
-    x = lanes[X * LANES + i]
-    p0 = lanes[P0 * LANES + i]
-    p1 = lanes[P1 * LANES + i]
-    p2 = lanes[P2 * LANES + i]
-    p3 = lanes[P3 * LANES + i]
-    fp, _fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-    f = ramp_height(x, p0, p1, p2, p3, shared)
-    return specific_energy(f, fp, lanes[V * LANES + i], lanes[G * LANES + i])
-
-
 def _apply_step(lanes, i, h, shared):
     """One step of size h from lane i's state, committed (events only)."""
     x1, v1, dw, _path, dk = step(
@@ -182,33 +170,41 @@ def _apply_step(lanes, i, h, shared):
     lanes[STEPS * LANES + i] += 1.0
 
 
-def _event_value(kind, lanes, i, h, settings, shared):
-    """Event function ``kind`` after a trial step h from the lane's state:
-    > 0 before the event, <= 0 once it has happened.
-
-    EV_DIVERGED is +1 while the state is finite and within the speed bound
-    and -1 otherwise (it is located by bisection)."""
+def _event_values(lanes, i, h, settings, shared):
+    """One trial step h from lane i's state and every event function after it:
+    ``(bounded, exit_lo, exit_hi, contact, reversal)``, each function > 0
+    before its event and <= 0 once it has happened.  ``bounded`` is False where
+    the state stops being finite or passes the speed bound."""
     p0 = lanes[P0 * LANES + i]
     p1 = lanes[P1 * LANES + i]
     p2 = lanes[P2 * LANES + i]
     p3 = lanes[P3 * LANES + i]
+    g = lanes[G * LANES + i]
     x1, v1, dw, _path, dk = step(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
-        lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i], p0, p1, p2, p3, shared)
-    if kind == EV_REVERSAL:
-        return lanes[D * LANES + i] * v1
-    if kind == EV_EXIT_HI:
-        return settings[SET_XHI] - x1
-    if kind == EV_EXIT_LO:
-        return x1 - settings[SET_XLO]
+        lanes[Q * LANES + i], lanes[D * LANES + i], h, g, p0, p1, p2, p3, shared)
     fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+    bounded = (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(fp1)
+               and math.isfinite(fpp1) and math.isfinite(dw) and math.isfinite(dk)
+               and v1 * v1 <= lanes[VLIM2 * LANES + i])
+    contact = lanes[SN * LANES + i] * normal_term(v1, fpp1, g) if CHECK_CONTACT else 1.0
+    return (bounded, x1 - settings[SET_XLO], settings[SET_XHI] - x1, contact,
+            lanes[D * LANES + i] * v1)
+
+
+def _event_value(kind, lanes, i, h, settings, shared):
+    """Event function ``kind`` after a trial step h (EV_DIVERGED: +1 while the
+    state is bounded, -1 after; it is located by bisection)."""
+    bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h, settings, shared)
+    if kind == EV_REVERSAL:
+        return reversal
+    if kind == EV_EXIT_HI:
+        return exit_hi
+    if kind == EV_EXIT_LO:
+        return exit_lo
     if kind == EV_CONTACT:
-        return lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
-    finite = (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(fp1)
-              and math.isfinite(fpp1) and math.isfinite(dw) and math.isfinite(dk))
-    if finite and v1 * v1 <= lanes[VLIM2 * LANES + i]:
-        return 1.0
-    return -1.0
+        return contact
+    return 1.0 if bounded else -1.0
 
 
 def _start_value(kind, lanes, i, settings):
@@ -239,6 +235,9 @@ def _locate_event(kind, lanes, i, h_end, value_end, settings, shared):
         return 0.0
     b = h_end
     fb = value_end
+    # a residual this small is rounding: the root is found (a linear event
+    # function, as in Euler's steps, is hit in one or two iterations)
+    tolerance = 1e-15 * (abs(fa) + abs(fb)) if math.isfinite(fb) else 0.0
     side = 0
     for _ in range(200):
         if kind == EV_DIVERGED or not math.isfinite(fb):
@@ -262,7 +261,7 @@ def _locate_event(kind, lanes, i, h_end, value_end, settings, shared):
             if side == -1:
                 fa *= 0.5
             side = -1
-            if fc == 0.0:
+            if fc >= -tolerance:
                 break
         if b - a <= 4.0e-16 * h_end:
             break
@@ -399,25 +398,27 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         lanes[FPP * LANES + i] = fpp
     # 1. the largest usable step: where the state stays finite and bounded
     h_end = h
-    diverged = np.int64(EV_DIVERGED)  # one argument type for every call: one compilation
-    if event_value(diverged, lanes, i, h, settings, shared) <= 0.0:
+    bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h, settings, shared)
+    if not bounded:
+        diverged = np.int64(EV_DIVERGED)  # one argument type for every call: one compilation
         h_end = locate_event(diverged, lanes, i, h, -1.0, settings, shared)
         h_end = h_end * (1.0 - 1e-12)  # the first bad size; step back to a good one
         while h_end > 0.0 and event_value(diverged, lanes, i, h_end, settings, shared) <= 0.0:
             h_end *= 0.5
-    # 2. the earliest event within [0, h_end]
+        bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h_end, settings, shared)
+    # 2. the earliest event within [0, h_end] (ties: the order below)
+    values = (exit_lo, exit_hi, contact, reversal)  # the order of EV_EXIT_LO .. EV_REVERSAL
     best_kind = EV_NONE
     best_h = h_end
-    for kind in (np.int64(EV_EXIT_LO), np.int64(EV_EXIT_HI), np.int64(EV_CONTACT),
-                 np.int64(EV_REVERSAL)):
-        if h_end <= 0.0 or (kind == EV_CONTACT and not CHECK_CONTACT):
-            continue
-        value = event_value(kind, lanes, i, h_end, settings, shared)
-        if value <= 0.0:
-            h_k = locate_event(kind, lanes, i, h_end, value, settings, shared)
-            if best_kind == EV_NONE or h_k < best_h:
-                best_h = h_k
-                best_kind = kind
+    if h_end > 0.0:
+        for k in range(4):
+            value = values[k]
+            if value <= 0.0:
+                kind = np.int64(EV_EXIT_LO + k)
+                h_k = locate_event(kind, lanes, i, h_end, value, settings, shared)
+                if best_kind == EV_NONE or h_k < best_h:
+                    best_h = h_k
+                    best_kind = kind
     h_time = t_max - t_now
     if h_time < best_h or (best_kind == EV_NONE and h_time <= h_end):
         best_h = max(h_time, 0.0)
@@ -494,8 +495,20 @@ def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
 
 
 def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
-    """After ``n_substeps`` vector steps: resolve lanes with a pending event and
-    lanes past the speed bound.  Returns how many lanes finished (now empty)."""
+    """After ``n_substeps`` vector steps: resolve lanes with a pending event
+    (they advanced fewer steps) and stop lanes past the speed bound.  Returns
+    how many lanes finished (now empty).
+
+    A vectorised pass first counts the lanes that need attention, so that a
+    scan with nothing to do costs a few cycles per lane."""
+    flagged = 0
+    for i in range(n_active):
+        v = lanes[V * LANES + i]
+        attention = ((lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i] < n_substeps)
+                     | (v * v > lanes[VLIM2 * LANES + i]))
+        flagged += 1 if attention else 0
+    if flagged == 0:
+        return 0
     freed = 0
     for i in range(n_active):
         if lanes[TRAJ * LANES + i] < 0.0:
@@ -504,16 +517,14 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
         if advanced > 0.0:
             lanes[CASCADE * LANES + i] = 0.0
         if advanced >= n_substeps:
-            if energy_now(lanes, i, shared) <= lanes[ELIM * LANES + i]:
-                lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
+            v = lanes[V * LANES + i]
+            if v * v <= lanes[VLIM2 * LANES + i]:
                 continue
+            # past the speed bound: the step is far too large
             rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
             finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
             freed += 1
-            continue
-        if resolve_lane(lanes, i, settings, outputs, shared):
-            lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
-        else:
+        elif not resolve_lane(lanes, i, settings, outputs, shared):
             freed += 1
     return freed
 
@@ -642,9 +653,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     add("step", template)
     for key, function in (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
-        ("energy_now", _energy_now),
         ("set_mode", _set_mode), ("start_value", _start_value),
-        ("event_value", _event_value), ("locate_event", _locate_event),
+        ("event_values", _event_values), ("event_value", _event_value), ("locate_event", _locate_event),
         ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),
         ("resolve_lane", _resolve_lane), ("fill_lane", _fill_lane),
         ("advance_lanes", _advance_lanes), ("scan_lanes", _scan_lanes),
