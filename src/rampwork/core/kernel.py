@@ -82,7 +82,7 @@ CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-eva
 LANES = 64  # lanes per block
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
- scan_lanes, compact_lanes, event_values) = (None,) * 17
+ scan_lanes, compact_lanes, event_values, refresh_slope) = (None,) * 18
 
 
 # ------------------------------------------------------------------------------
@@ -154,6 +154,16 @@ def _rebase(lanes, i, t_now, settings):
     lanes[SM * LANES + i] = lanes[STEPS * LANES + i]
     remaining = math.floor((settings[SET_TMAX] - t_now) / settings[SET_DT])
     lanes[LIMIT * LANES + i] = lanes[STEPS * LANES + i] + max(remaining, 0.0)
+
+
+def _refresh_slope(lanes, i, shared):
+    """Evaluate f', f'' at lane i's x, store them in the lane and return them."""
+    fp, fpp = ramp_slope_curvature(lanes[X * LANES + i], lanes[P0 * LANES + i],
+                                   lanes[P1 * LANES + i], lanes[P2 * LANES + i],
+                                   lanes[P3 * LANES + i], shared)
+    lanes[FP * LANES + i] = fp
+    lanes[FPP * LANES + i] = fpp
+    return fp, fpp
 
 
 def _apply_step(lanes, i, h, shared):
@@ -390,12 +400,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
     if not CARRY_SLOPE:
-        # the vector loop re-evaluated f', f'' each step without storing them
-        fp, fpp = ramp_slope_curvature(lanes[X * LANES + i], lanes[P0 * LANES + i],
-                                       lanes[P1 * LANES + i], lanes[P2 * LANES + i],
-                                       lanes[P3 * LANES + i], shared)
-        lanes[FP * LANES + i] = fp
-        lanes[FPP * LANES + i] = fpp
+        refresh_slope(lanes, i, shared)  # the vector loop did not store f', f''
     # 1. the largest usable step: where the state stays finite and bounded
     h_end = h
     bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h, settings, shared)
@@ -428,13 +433,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         apply_step(lanes, i, h, shared)
         lanes[CASCADE * LANES + i] = 0.0
         rebase(lanes, i, t_now + h, settings)
-        if not CARRY_SLOPE:
-            return True
-        fp, fpp = ramp_slope_curvature(lanes[X * LANES + i], lanes[P0 * LANES + i],
-                                       lanes[P1 * LANES + i], lanes[P2 * LANES + i],
-                                       lanes[P3 * LANES + i], shared)
-        lanes[FP * LANES + i] = fp
-        lanes[FPP * LANES + i] = fpp
+        refresh_slope(lanes, i, shared)
         return True
     if best_kind == EV_NONE:
         # the state goes bad within this step and no event comes first
@@ -458,10 +457,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         finish_lane(lanes, i, st.EXITED, np.nan, outputs, shared)
         return False
     x = lanes[X * LANES + i]
-    fp, fpp = ramp_slope_curvature(x, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
-                                   lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
-    lanes[FP * LANES + i] = fp
-    lanes[FPP * LANES + i] = fpp
+    fp, fpp = refresh_slope(lanes, i, shared)
     if best_kind == EV_CONTACT:
         if ONE_SIDED:
             finish_lane(lanes, i, st.LIFTED_OFF, x, outputs, shared)
@@ -654,7 +650,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     for key, function in (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
         ("set_mode", _set_mode), ("start_value", _start_value),
-        ("event_values", _event_values), ("event_value", _event_value), ("locate_event", _locate_event),
+        ("event_values", _event_values), ("event_value", _event_value),
+        ("refresh_slope", _refresh_slope), ("locate_event", _locate_event),
         ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),
         ("resolve_lane", _resolve_lane), ("fill_lane", _fill_lane),
         ("advance_lanes", _advance_lanes), ("scan_lanes", _scan_lanes),
