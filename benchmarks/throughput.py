@@ -74,7 +74,7 @@ SCIPY_RTOL = 1e-8
 SCIPY_ATOL = 1e-10
 
 QUICK = dict(n=20_000, scipy_subset=20, numpy_subset=5_000, accuracy_subset=50, uniform=2_000)
-FULL = dict(n=1_000_000, scipy_subset=200, numpy_subset=100_000, accuracy_subset=200, uniform=20_000)
+FULL = dict(n=1_000_000, scipy_subset=200, numpy_subset=100_000, accuracy_subset=200, uniform=100_000)
 #: the identical-trajectory diagnostic: a start that swings about 8 times
 #: (about 8.5e3 steps at dt = 1e-3) and sticks; every lane is busy all the time
 UNIFORM_START = {"x0": 0.9, "v0": 0.0, "mu": 0.05}

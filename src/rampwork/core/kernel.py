@@ -1,14 +1,16 @@
 """The batch kernel: many trajectories in lock-step SIMD lanes, reduced on the fly.
 
 Why lanes: a loop that carries one trajectory at a time is bound by the latency
-of its divisions.  Here a tile of trajectories is run through a block of ``B``
-lanes stored as structure of arrays; the inner loop does one step for every
-lane with no data-dependent branch, so LLVM turns it into vector code.  A lane
-whose step contains an event (reversal or stop, lift-off, contact switch, exit,
-``t_max``, divergence) freezes at the start of that step and raises a flag; every
-``N_SUBSTEPS`` steps a scalar pass resolves the flagged lanes exactly (the event
-located inside the step by root finding on the step size, to rounding) and
-refills finished lanes with the next trajectory of the tile.
+of its divisions.  Here a tile of trajectories is run through a block of
+``LANES`` lanes stored as structure of arrays; the inner loop does one step for
+every lane with no data-dependent branch, so LLVM turns it into vector code.  A
+lane whose step contains an event (reversal or stop, lift-off, contact switch,
+exit, ``t_max``, divergence) freezes at the start of that step (it stops
+counting steps); every ``N_SUBSTEPS`` steps a scalar pass resolves the frozen
+lanes exactly (the event located inside the step by root finding on the step
+size, to rounding) and refills finished lanes with the next trajectory of the
+tile.  Once a tile has nothing left to load, running lanes are compacted to
+the front so that its tail does not step empty lanes.
 
 Every trajectory sees the same sequence of floating-point operations whatever
 lane, tile, block size or thread runs it, so results are bit-for-bit
@@ -118,7 +120,7 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
                 fpp = lanes[FPP * LANES + i]
             else:
                 fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-            x1, v1, dw, _path, dk = step(x, v, fp, fpp, lanes[Q * LANES + i], d, h, g,
+            x1, v1, dw, dk = step(x, v, fp, fpp, lanes[Q * LANES + i], d, h, g,
                                          p0, p1, p2, p3, shared)
             ok = ((d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
                   & (steps < lanes[LIMIT * LANES + i]))
@@ -168,7 +170,7 @@ def _refresh_slope(lanes, i, shared):
 
 def _apply_step(lanes, i, h, shared):
     """One step of size h from lane i's state, committed (events only)."""
-    x1, v1, dw, _path, dk = step(
+    x1, v1, dw, dk = step(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
         lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i],
         lanes[P0 * LANES + i], lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i],
@@ -190,7 +192,7 @@ def _event_values(lanes, i, h, settings, shared):
     p2 = lanes[P2 * LANES + i]
     p3 = lanes[P3 * LANES + i]
     g = lanes[G * LANES + i]
-    x1, v1, dw, _path, dk = step(
+    x1, v1, dw, dk = step(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
         lanes[Q * LANES + i], lanes[D * LANES + i], h, g, p0, p1, p2, p3, shared)
     fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)

@@ -3,17 +3,18 @@
 Each advances the state of one trajectory by ``h`` within a mode (direction
 ``d`` and signed friction ``q`` fixed) and returns
 
-    (x_new, v_new, friction_work, path_length, curvature_integral)
+    (x_new, v_new, friction_work, curvature_integral)
 
-the last three being the increments over the step of the per-unit-mass
-integrals  ∫ q n v dt  (= ∫ mu_k |n| |v| dt, paper eq. 13),  ∫ d v dt
-(= ∫ |v| dt) and ∫ f'' d v dt, each integrated with the method's own order.
-Using ``d v`` rather than ``|v|`` keeps every integrand smooth up to the event.
+the last two being the increments over the step of the per-unit-mass
+integrals  ∫ q n v dt  (= ∫ mu_k |n| |v| dt, paper eq. 13)  and  ∫ f'' d v dt,
+each integrated with the method's own order.  Using ``d v`` rather than ``|v|``
+keeps every integrand smooth up to the event.  The path ∫ |v| dt needs no
+integral of its own: within a mode it is ``d (x_end - x_start)``.
 
 ``fp, fpp`` are f', f'' at the start point (carried over from the previous
-step, so each step evaluates the ramp once per stage, not once more).  The
-global ``ramp_slope_curvature(x, p0, p1, p2, p3, shared) -> (f', f'')`` is bound
-by ``specialise``.
+step, or re-evaluated where that is cheaper).  The global
+``ramp_slope_curvature(x, p0, p1, p2, p3, shared) -> (f', f'')`` is bound by
+``specialise``.
 """
 
 from .jit import fma
@@ -26,7 +27,7 @@ def euler_step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared):
     """The paper's explicit Euler scheme, eqs. (22)-(23)."""
     n = normal_term(v, fpp, g)
     a = acceleration(n, fp, q)
-    return fma(h, v, x), fma(h, a, v), h * q * n * v, h * d * v, h * fpp * d * v
+    return fma(h, v, x), fma(h, a, v), h * q * n * v, h * fpp * d * v
 
 
 def semi_implicit_euler_step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared):
@@ -35,7 +36,7 @@ def semi_implicit_euler_step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared):
     a = acceleration(n, fp, q)
     v_new = fma(h, a, v)
     x_new = fma(h, v_new, x)
-    return x_new, v_new, h * q * n * v, d * (x_new - x), h * fpp * d * v
+    return x_new, v_new, h * q * n * v, h * fpp * d * v
 
 
 def rk4_step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared):
@@ -67,8 +68,7 @@ def rk4_step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared):
     v_new = fma(sixth, a1 + 2.0 * (a2 + a3) + a4, v)
     work = q * sixth * (n1 * v + 2.0 * (n2 * v2 + n3 * v3) + n4 * v4)
     curvature = d * sixth * (fpp * v + 2.0 * (fpp2 * v2 + fpp3 * v3) + fpp4 * v4)
-    # ∫ d v dt with RK4's weights is exactly d (x_new - x)
-    return x_new, v_new, work, d * (x_new - x), curvature
+    return x_new, v_new, work, curvature
 
 
 #: method name -> (template, order)
