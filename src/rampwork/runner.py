@@ -361,6 +361,7 @@ def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
         mass = _masses(plan, int(j), int(j) + 1)[0]
         trace[3] *= mass
         samples[:, k, :] = trace
+    samples = samples[:, :, :max(int(lengths.max()), 1)]  # no all-NaN tail
     dims = schema.TRACE_DIMS
     data_vars = {name: (dims, samples[row], schema.output_attrs(name))
                  for row, name in enumerate(("trace_t", "trace_x", "trace_v", "trace_W_friction"))}
