@@ -22,6 +22,7 @@ from . import schema
 from .core import kernel as K
 from .core.status import STATUS_NAMES
 from .errors import ConfigError
+from .ramps import Ramp
 from .scene import Scene, Sweep
 
 #: trajectories per kernel call; bounds the temporary input/output arrays
@@ -375,13 +376,30 @@ def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
     return xr.Dataset(data_vars, coords=coords)
 
 
-def _attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps) -> dict:
+def scene_text(scene: Scene, sweep: Sweep) -> str:
+    """The scene file that reproduces a run; for a ramp of user functions,
+    which no file can hold, the same file with the ramp described in comments
+    (the rest still documents every setting)."""
     from .scenefile import dump_scene
 
+    if scene.ramp.family != "callable":
+        return dump_scene(scene, sweep)
+    spec = scene.ramp.spec
+    stand_in = scene.replace(ramp=Ramp.create("straight", slope=0.0, domain=scene.ramp.domain))
+    lines = dump_scene(stand_in, sweep).splitlines()
+    start = lines.index("[ramp]")
+    end = next((k for k in range(start + 1, len(lines)) if lines[k].startswith("[")), len(lines))
+    note = [f"# [ramp]: user functions {spec.name!r} (Ramp.from_functions) on domain "
+            f"{list(scene.ramp.domain)}, curvature sign {spec.curvature_sign({}, scene.ramp.domain)}; "
+            "not reproducible from this file"]
+    return "\n".join(lines[:start] + note + lines[end:]) + "\n"
+
+
+def _attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps) -> dict:
     scene = plan.scene
     return schema.global_attrs(
         scene.title,
-        dump_scene(scene, plan.sweep),
+        scene_text(scene, plan.sweep),
         f"rampwork.simulate: {plan.size} trajectories, {scene.integrator.method}, "
         f"dt={scene.integrator.dt!r}",
         {
