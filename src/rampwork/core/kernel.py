@@ -87,7 +87,8 @@ CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-eva
 LANES = 64  # lanes per block
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
- scan_lanes, compact_lanes, event_values, refresh_slope, active_span) = (None,) * 19
+ scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
+ trial_step) = (None,) * 20
 
 
 # ------------------------------------------------------------------------------
@@ -171,13 +172,19 @@ def _refresh_slope(lanes, i, shared):
     return fp, fpp
 
 
-def _apply_step(lanes, i, h, shared):
-    """One step of size h from lane i's state, committed (events only)."""
-    x1, v1, dw, dk = step(
+def _trial_step(lanes, i, h, shared):
+    """One step of size h from lane i's state, not committed:
+    ``(x, v, friction_work, curvature_integral)`` as the stepper returns them."""
+    return step(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
         lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i],
         lanes[P0 * LANES + i], lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i],
         shared)
+
+
+def _apply_step(lanes, i, h, shared):
+    """One step of size h from lane i's state, committed (events only)."""
+    x1, v1, dw, dk = trial_step(lanes, i, h, shared)
     lanes[X * LANES + i] = x1
     lanes[V * LANES + i] = v1
     lanes[W * LANES + i] += dw
@@ -190,19 +197,14 @@ def _event_values(lanes, i, h, settings, shared):
     ``(bounded, exit_lo, exit_hi, contact, reversal)``, each function > 0
     before its event and <= 0 once it has happened.  ``bounded`` is False where
     the state stops being finite or passes the speed bound."""
-    p0 = lanes[P0 * LANES + i]
-    p1 = lanes[P1 * LANES + i]
-    p2 = lanes[P2 * LANES + i]
-    p3 = lanes[P3 * LANES + i]
-    g = lanes[G * LANES + i]
-    x1, v1, dw, dk = step(
-        lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
-        lanes[Q * LANES + i], lanes[D * LANES + i], h, g, p0, p1, p2, p3, shared)
-    fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+    x1, v1, dw, dk = trial_step(lanes, i, h, shared)
+    fp1, fpp1 = ramp_slope_curvature(x1, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
+                                     lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
     bounded = (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(fp1)
                and math.isfinite(fpp1) and math.isfinite(dw) and math.isfinite(dk)
                and v1 * v1 <= lanes[VLIM2 * LANES + i])
-    contact = lanes[SN * LANES + i] * normal_term(v1, fpp1, g) if CHECK_CONTACT else 1.0
+    contact = (lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
+               if CHECK_CONTACT else 1.0)
     return (bounded, x1 - settings[SET_XLO], settings[SET_XHI] - x1, contact,
             lanes[D * LANES + i] * v1)
 
@@ -366,8 +368,9 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     # divergence bound: the speed can never exceed what the energy allows
     f_min = f
     f_max = f
+    spacing = (x_hi - x_lo) / (N_RANGE_SAMPLES - 1)
     for k in range(N_RANGE_SAMPLES):
-        fs = ramp_height(x_lo + (x_hi - x_lo) * k / (N_RANGE_SAMPLES - 1), p0, p1, p2, p3, shared)
+        fs = ramp_height(x_lo + spacing * k, p0, p1, p2, p3, shared)
         f_min = min(f_min, fs)
         f_max = max(f_max, fs)
     energy_scale = 0.5 * v * v * (1.0 + fp * fp) + g * (f_max - f_min)
@@ -664,7 +667,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     add("step", template)
     for key, function in (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
-        ("set_mode", _set_mode), ("start_value", _start_value),
+        ("set_mode", _set_mode), ("start_value", _start_value), ("trial_step", _trial_step),
         ("event_values", _event_values), ("event_value", _event_value),
         ("refresh_slope", _refresh_slope), ("locate_event", _locate_event),
         ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),
