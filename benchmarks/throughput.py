@@ -358,7 +358,7 @@ def scipy_trajectory(x0, v0, mu, solve_ivp):
     c, s, g = CURVATURE, SLOPE, G
     lo, hi = DOMAIN
     t, x, v, w = 0.0, float(x0), float(v0), 0.0
-    nfev = nsteps = 0
+    nfev = 0
     if v == 0.0:
         fp = s + c * x
         d = 0.0 if abs(fp) <= mu else -math.copysign(1.0, fp)

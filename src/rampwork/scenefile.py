@@ -175,7 +175,7 @@ def _number(where: str, value, sweepable: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         hint = ""
         if sweepable and isinstance(value, (list, dict)):
-            hint = f"; to run several values, list them under [sweep.axes]"
+            hint = "; to run several values, list them under [sweep.axes]"
         raise ConfigError(where, f"expected a finite number, got {_short(value)} ({_type_name(value)}){hint}")
     try:
         number = float(value)
