@@ -60,3 +60,30 @@ def test_every_output_carries_its_schema_attributes():
         "stuck", "exited", "lifted_off", "timeout", "diverged"]
     assert ds.attrs["compile_time_s"] >= 0 and ds.attrs["run_time_s"] >= 0
     assert ds.attrs["trajectory_steps"] == int(ds.steps.sum())
+
+
+def test_bitwise_identical_whatever_the_block_and_tile_size():
+    """A trajectory's arithmetic must not depend on its lane, its tile, the
+    number of lanes per block or how a tile's tail is compacted."""
+    from rampwork import runner
+    from rampwork.core import kernel as K
+
+    scene = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=1.0, y_centre=1.0, domain=(-0.9, 0.9)),
+                     friction=rw.Friction(0.05, 0.15), x0=0.0, t_max=15.0)
+    sweep = rw.Sweep.random(700, seed=11, x0=(-0.85, 0.85), v0=(-3.0, 3.0), mu_k=(0.0, 0.15))
+    plan = runner.plan_run(scene, sweep)
+    inputs = runner.chunk_inputs(plan, 0, plan.size)
+    settings = np.array([-0.9, 0.9, 1e-3, 15.0])
+    spec = scene.ramp.spec
+    results = []
+    for lanes, tile in ((64, 4096), (64, 37), (16, 1), (16, 250)):
+        run_batch, _ = K.build_kernel("rk4", spec.height, spec.slope_curvature, name=spec.key,
+                                      check_contact=False, carry_slope=True, lanes=lanes)
+        out = np.zeros((K.N_OUTPUTS, plan.size))
+        run_batch(inputs, settings, out, scene.ramp.shared_array(), tile)
+        results.append(out)
+    statuses = set(results[0][K.OUT_STATUS].astype(int))
+    assert {1, 2} <= statuses  # the sweep has both stops and exits
+    assert results[0][K.OUT_NREV].max() >= 3  # and many reversals
+    for out in results[1:]:
+        assert np.array_equal(out, results[0], equal_nan=True)
