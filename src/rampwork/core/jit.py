@@ -12,6 +12,7 @@ import os
 import pathlib
 import types
 
+import llvmlite.binding as llvm
 import numba
 from llvmlite import ir
 from numba.core import types as nbtypes
@@ -26,7 +27,7 @@ from numba.extending import intrinsic
 JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", fastmath=False)
 
 
-def _tune_llvm() -> str | None:
+def _tune_llvm() -> None:
     """Two code-generation settings for the lane loops (results unchanged).
 
     * Vector width: LLVM's tuning for recent Intel cores says 'prefer-256-bit';
@@ -41,26 +42,14 @@ def _tune_llvm() -> str | None:
     selection.  Set RAMPWORK_VECTOR_WIDTH=256 (or NUMBA_CPU_FEATURES) to keep
     LLVM's vector width, RAMPWORK_INTERLEAVE=0 to keep its interleaving.
     """
-    if os.environ.get("RAMPWORK_INTERLEAVE", "2") != "0":
-        try:
-            import llvmlite.binding as llvm
-
-            llvm.set_option("rampwork", "-force-vector-interleave="
-                            + os.environ.get("RAMPWORK_INTERLEAVE", "2"))
-        except Exception:  # pragma: no cover - option unknown to this LLVM
-            pass
+    interleave = os.environ.get("RAMPWORK_INTERLEAVE", "2")
+    if interleave != "0":
+        llvm.set_option("rampwork", f"-force-vector-interleave={interleave}")
     if os.environ.get("NUMBA_CPU_FEATURES") or os.environ.get("RAMPWORK_VECTOR_WIDTH") == "256":
-        return None
-    try:
-        import llvmlite.binding as llvm
-
-        features = llvm.get_host_cpu_features()
-    except Exception:  # pragma: no cover - unusual llvmlite builds
-        return None
-    if not features.get("avx512f", False):
-        return None
-    numba.config.CPU_FEATURES = features.flatten() + ",-prefer-256-bit"
-    return numba.config.CPU_FEATURES
+        return
+    features = llvm.get_host_cpu_features()
+    if features.get("avx512f", False):
+        numba.config.CPU_FEATURES = features.flatten() + ",-prefer-256-bit"
 
 
 _tune_llvm()
