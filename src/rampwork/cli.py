@@ -193,7 +193,7 @@ def cmd_run(args) -> int:
     output = io.check_writable(args.output, args.overwrite)
     if not args.quiet:
         print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
-              f"{scene.integrator.method} dt = {scene.integrator.dt!r} s", flush=True)
+              f"{scene.integrator.describe()}", flush=True)
     progress = _Progress() if (not args.quiet and sys.stderr.isatty()) else None
     try:
         dataset = simulate(scene, sweep, threads=args.threads, progress=progress)
@@ -229,15 +229,16 @@ def cmd_check(args) -> int:
     plan = _plan(args.scene, scene, sweep)
     ramp = scene.ramp
     params = ", ".join(f"{k} = {v!r}" for k, v in ramp.params)
-    steps = scene.t_max / scene.integrator.dt
+    integrator = scene.integrator
+    steps = ("" if integrator.adaptive else
+             f" (at most {scene.t_max / integrator.dt:,.0f} steps per trajectory)")
     print(f"{args.scene}: OK")
     print(f"title         {scene.title}")
     print(f"ramp          {ramp.family}" + (f" ({params})" if params else "")
           + f" on [{ramp.domain[0]!r}, {ramp.domain[1]!r}] m")
     print(f"friction      mu_k = {scene.friction.mu_k!r}, mu_s = {scene.friction.mu_s!r}; "
           f"contact {scene.contact}")
-    print(f"integrator    {scene.integrator.method}, dt = {scene.integrator.dt!r} s, "
-          f"t_max = {scene.t_max!r} s (at most {steps:,.0f} steps per trajectory)")
+    print(f"integrator    {integrator.describe()}, t_max = {scene.t_max!r} s{steps}")
     dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
     print(f"sweep         {_sweep_shape(sweep)}; {dims}")
     print(f"trajectories  {plan.size:,}")

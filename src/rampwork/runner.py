@@ -27,6 +27,8 @@ from .scene import Scene, Sweep
 
 #: trajectories per kernel call; bounds the temporary input/output arrays
 CHUNK_SIZE = 1 << 18
+#: an adaptive step below this many rounding units of t_max counts as collapsed
+H_MIN_ROUNDING = 4.0
 #: families whose f', f'' cost less to re-evaluate than to carry in the lanes
 CHEAP_FAMILIES = ("straight", "quadratic")
 #: refuse sweeps whose results would not fit in this share of physical memory
@@ -165,8 +167,17 @@ def get_kernel(plan: RunPlan):
 def _settings(scene: Scene) -> np.ndarray:
     settings = np.zeros(K.N_SETTINGS)
     settings[K.SET_XLO], settings[K.SET_XHI] = scene.ramp.domain
-    settings[K.SET_DT] = scene.integrator.dt
     settings[K.SET_TMAX] = scene.t_max
+    integrator = scene.integrator
+    if integrator.adaptive:
+        settings[K.SET_DT] = 0.0 if integrator.dt is None else integrator.dt  # 0: estimate
+        settings[K.SET_RTOL] = integrator.rtol
+        settings[K.SET_ATOL] = integrator.atol
+        settings[K.SET_HMAX] = math.inf if integrator.dt_max is None else integrator.dt_max
+        # below a few rounding units of the time a step no longer advances it
+        settings[K.SET_HMIN] = H_MIN_ROUNDING * np.finfo(np.float64).eps * scene.t_max
+    else:
+        settings[K.SET_DT] = integrator.dt
     return settings
 
 
@@ -254,6 +265,8 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray) -> dic
         "n_reversals": raw[K.OUT_NREV].astype(np.int32),
         "x_lift_off": raw[K.OUT_XLIFT],
         "steps": raw[K.OUT_STEPS].astype(np.int64),
+        "steps_rejected": raw[K.OUT_NREJ].astype(np.int64),
+        "W_friction_error_estimate": mass * raw[K.OUT_WORK_ERROR],
     }
 
 
@@ -282,8 +295,9 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     shared = scene.ramp.shared_array()
     compile_seconds = build_seconds + _warm_up(run_batch, plan, settings)
 
-    results = {name: np.empty(plan.size, dtype=schema.OUTPUTS[name].np_dtype)
-               for name in schema.OUTPUTS}
+    results = {name: np.empty(plan.size, dtype=spec.np_dtype)
+               for name, spec in schema.OUTPUTS.items()
+               if scene.integrator.adaptive or name not in schema.ADAPTIVE_OUTPUTS}
     previous_threads = numba.get_num_threads()
     numba.set_num_threads(threads)
     started = time.perf_counter()
@@ -295,7 +309,8 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
                 raw = np.zeros((K.N_OUTPUTS, stop - start))
                 run_batch(inputs, settings, raw, shared, tile_size(stop - start, threads))
                 for name, values in reduce_outputs(raw, inputs, _masses(plan, start, stop)).items():
-                    results[name][start:stop] = values
+                    if name in results:
+                        results[name][start:stop] = values
                 if progress is not None:
                     progress(stop, plan.size)
     finally:
@@ -400,14 +415,13 @@ def _attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps) -> 
     return schema.global_attrs(
         scene.title,
         scene_text(scene, plan.sweep),
-        f"rampwork.simulate: {plan.size} trajectories, {scene.integrator.method}, "
-        f"dt={scene.integrator.dt!r}",
+        f"rampwork.simulate: {plan.size} trajectories, {scene.integrator.describe()}",
         {
             "ramp_family": scene.ramp.family,
             "ramp_domain": np.array(scene.ramp.domain),
-            "integrator_method": scene.integrator.method,
+            **{f"integrator_{key}": value for key, value in scene.integrator.settings().items()},
             "integrator_order": scene.integrator.order,
-            "integrator_dt": scene.integrator.dt,
+            "integrator_adaptive": int(scene.integrator.adaptive),
             "t_max": scene.t_max,
             "contact": scene.contact,
             "sweep_kind": plan.sweep.kind,

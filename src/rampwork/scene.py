@@ -13,11 +13,18 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import validate
-from .core.steppers import STEPPERS
+from .core.steppers import ADAPTIVE_STEPPERS, STEPPERS
 from .errors import ConfigError
 from .ramps import Ramp
 
-METHODS = tuple(STEPPERS)
+METHODS = tuple(STEPPERS) + tuple(ADAPTIVE_STEPPERS)
+#: fixed-step methods' step when none is given (s)
+DEFAULT_DT = 1e-3
+#: adaptive methods' relative tolerance when none is given, and the ranges
+#: allowed (below 1e-14 the target is under float64 rounding of a step)
+DEFAULT_RTOL = 1e-6
+RTOL_RANGE = (1e-14, 0.1)
+ATOL_RANGE = (1e-20, 1.0)
 CONTACTS = ("one_sided", "two_sided")
 SWEEP_KINDS = ("grid", "cases")
 #: sweep axes that are not ramp parameters (schema.AXES holds their units)
@@ -45,18 +52,81 @@ class Friction:
 
 @dataclass(frozen=True)
 class Integrator:
-    """A fixed-step method and its step ``dt`` (s)."""
+    """How trajectories are integrated.
+
+    Fixed-step methods (``euler``, ``semi_implicit_euler``, ``rk4``) take steps
+    of ``dt`` (s, default 1e-3).  The adaptive pair ``dopri5`` (Dormand-Prince
+    5(4), PI step-size control per trajectory) keeps the local error of x, v and
+    the work integrals below ``atol + rtol * |value|`` (``rtol`` default 1e-6,
+    ``atol`` default ``rtol``: SI units, so for metre-scale ramps both read as
+    relative); ``dt`` is then its first step (default: estimated per
+    trajectory) and ``dt_max`` its largest (default: no limit).
+    """
 
     method: str = "rk4"
-    dt: float = 1e-3
+    dt: float | None = None
+    rtol: float | None = None
+    atol: float | None = None
+    dt_max: float | None = None
 
     def __post_init__(self):
         validate.choice("integrator.method", self.method, METHODS)
-        object.__setattr__(self, "dt", validate.positive("integrator.dt", self.dt))
+        if self.method in ADAPTIVE_STEPPERS:
+            rtol = DEFAULT_RTOL if self.rtol is None else validate.real("integrator.rtol", self.rtol)
+            if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
+                raise ConfigError("integrator.rtol", f"must be in [{RTOL_RANGE[0]:g}, "
+                                  f"{RTOL_RANGE[1]:g}], got {rtol!r}")
+            atol = rtol if self.atol is None else validate.real("integrator.atol", self.atol)
+            if not ATOL_RANGE[0] <= atol <= ATOL_RANGE[1]:
+                raise ConfigError("integrator.atol", f"must be in [{ATOL_RANGE[0]:g}, "
+                                  f"{ATOL_RANGE[1]:g}], got {atol!r}")
+            object.__setattr__(self, "rtol", rtol)
+            object.__setattr__(self, "atol", atol)
+            if self.dt is not None:
+                object.__setattr__(self, "dt", validate.positive("integrator.dt", self.dt))
+            if self.dt_max is not None:
+                object.__setattr__(self, "dt_max", validate.positive("integrator.dt_max", self.dt_max))
+                if self.dt is not None and self.dt > self.dt_max:
+                    raise ConfigError("integrator.dt", f"the first step must be <= dt_max = "
+                                      f"{self.dt_max!r}, got {self.dt!r}")
+            return
+        for name in ("rtol", "atol", "dt_max"):
+            if getattr(self, name) is not None:
+                raise ConfigError(f"integrator.{name}", f"applies to adaptive methods "
+                                  f"({', '.join(ADAPTIVE_STEPPERS)}); {self.method!r} takes "
+                                  "fixed steps of dt")
+        dt = DEFAULT_DT if self.dt is None else self.dt
+        object.__setattr__(self, "dt", validate.positive("integrator.dt", dt))
+
+    @property
+    def adaptive(self) -> bool:
+        return self.method in ADAPTIVE_STEPPERS
 
     @property
     def order(self) -> int:
-        return STEPPERS[self.method][1]
+        return {**STEPPERS, **ADAPTIVE_STEPPERS}[self.method][1]
+
+    def settings(self) -> dict:
+        """The integrator's settings that apply (for attributes and scene files)."""
+        if not self.adaptive:
+            return {"method": self.method, "dt": self.dt}
+        values = {"method": self.method, "rtol": self.rtol, "atol": self.atol}
+        if self.dt is not None:
+            values["dt"] = self.dt
+        if self.dt_max is not None:
+            values["dt_max"] = self.dt_max
+        return values
+
+    def describe(self) -> str:
+        """One line, e.g. ``rk4, dt = 0.001 s`` or ``dopri5, rtol = 1e-08``."""
+        if not self.adaptive:
+            return f"{self.method}, dt = {self.dt!r} s"
+        text = f"{self.method}, rtol = {self.rtol!r}, atol = {self.atol!r}"
+        if self.dt is not None:
+            text += f", first step {self.dt!r} s"
+        if self.dt_max is not None:
+            text += f", dt_max = {self.dt_max!r} s"
+        return text
 
 
 @dataclass(frozen=True)
@@ -118,7 +188,8 @@ class Scene:
         validate.choice("contact", self.contact, CONTACTS)
         if not isinstance(self.title, str):
             raise ConfigError("title", f"expected a string, got {self.title!r}")
-        if t_max / self.integrator.dt > MAX_STEPS_PER_TRAJECTORY:
+        if (not self.integrator.adaptive
+                and t_max / self.integrator.dt > MAX_STEPS_PER_TRAJECTORY):
             raise ConfigError("t_max", f"t_max / dt = {t_max / self.integrator.dt:.3g} steps per "
                               f"trajectory; at most {MAX_STEPS_PER_TRAJECTORY:.0e} allowed")
 

@@ -30,8 +30,13 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     mu_s = 0.4         # optional, defaults to mu_k; must be >= mu_k
 
     [integrator]       # default rk4, dt = 1e-3
-    method = "rk4"     # euler | semi_implicit_euler | rk4
-    dt = 1e-3          # s
+    method = "rk4"     # euler | semi_implicit_euler | rk4: fixed steps of dt
+                       # | dopri5: adaptive (Dormand-Prince 5(4), error control)
+    dt = 1e-3          # s; dopri5: the first step (default: estimated)
+    # dopri5 only:
+    # rtol = 1e-8      # relative tolerance on x, v and the work integrals (default 1e-6)
+    # atol = 1e-8      # absolute tolerance, SI units (default: rtol)
+    # dt_max = 0.1     # s, the largest step (default: none)
 
     [record]           # optional: record a few whole trajectories
     count = 4          # trajectories spread evenly over the sweep (or indices = [...])
@@ -109,7 +114,7 @@ MAX_TRAJECTORIES = 10**9
 TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact",
             "ramp", "friction", "integrator", "record", "sweep")
 FRICTION_KEYS = ("mu_k", "mu_s")
-INTEGRATOR_KEYS = ("method", "dt")
+INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max")
 RECORD_KEYS = ("count", "every", "max_samples", "indices")
 SWEEP_KEYS = ("kind", "axes", "n", "seed")
 FILE_SWEEP_KINDS = ("grid", "cases", "random")
@@ -331,8 +336,9 @@ def _scene(data: dict) -> Scene:
     args: dict[str, Any] = {}
     if "method" in integrator:
         args["method"] = _string("integrator.method", integrator["method"])
-    if "dt" in integrator:
-        args["dt"] = _number("integrator.dt", integrator["dt"])
+    for key in INTEGRATOR_KEYS[1:]:
+        if key in integrator:
+            args[key] = _number(f"integrator.{key}", integrator[key])
     kwargs["integrator"] = Integrator(**args)
 
     record = _table("record", data.get("record", {}))
@@ -598,8 +604,10 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
     lines += ["", "[friction]", f"mu_k = {_toml_float('friction.mu_k', friction.mu_k)}",
               f"mu_s = {_toml_float('friction.mu_s', friction.mu_s)}"]
     integrator = scene.integrator
-    lines += ["", "[integrator]", f"method = {_toml_string(integrator.method)}",
-              f"dt = {_toml_float('integrator.dt', integrator.dt)}"]
+    lines += ["", "[integrator]"]
+    for key, value in integrator.settings().items():
+        lines.append(f"{key} = " + (_toml_string(value) if key == "method"
+                                    else _toml_float(f"integrator.{key}", value)))
     record = scene.record
     lines += ["", "[record]", f"count = {int(record.count)}", f"every = {int(record.every)}",
               f"max_samples = {int(record.max_samples)}"]

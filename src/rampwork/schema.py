@@ -24,6 +24,7 @@ from rampwork.errors import ConfigError
 __all__ = [
     "VariableSpec",
     "OUTPUTS",
+    "ADAPTIVE_OUTPUTS",
     "AXES",
     "TRAJECTORY_RECORD",
     "TRACE_DIMS",
@@ -172,7 +173,23 @@ _OUTPUT_LIST = (
         "integrator steps taken",
         "number of integrator steps taken, including partial event steps",
     ),
+    _i(
+        "steps_rejected",
+        "int64",
+        "integrator steps rejected",
+        "number of step attempts rejected by the adaptive error control (0 for fixed steps)",
+    ),
+    _f(
+        "W_friction_error_estimate",
+        "J",
+        "error estimate of the work against friction",
+        "sum over the accepted steps of the embedded pair's local error estimate of W_friction "
+        "(adaptive methods only; compare energy_balance_error)",
+    ),
 )
+
+#: outputs that only adaptive methods produce
+ADAPTIVE_OUTPUTS = ("W_friction_error_estimate",)
 
 OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OUTPUT_LIST}
 

@@ -121,3 +121,29 @@ def fma(typingctx, a, b, c):
         return builder.call(function, args)
 
     return signature, codegen
+
+
+@intrinsic
+def float_bits(typingctx, x):
+    """The IEEE-754 bits of a float64 as an int64 (a bit cast, vectorisable)."""
+    if not isinstance(x, nbtypes.Float):
+        return None
+
+    def codegen(context, builder, sig, args):
+        value = context.cast(builder, args[0], sig.args[0], nbtypes.float64)
+        return builder.bitcast(value, ir.IntType(64))
+
+    return nbtypes.int64(x), codegen
+
+
+@intrinsic
+def bits_float(typingctx, bits):
+    """The float64 whose IEEE-754 bits are the int64 ``bits`` (a bit cast)."""
+    if not isinstance(bits, nbtypes.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        value = context.cast(builder, args[0], sig.args[0], nbtypes.int64)
+        return builder.bitcast(value, ir.DoubleType())
+
+    return nbtypes.float64(bits), codegen

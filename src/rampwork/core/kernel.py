@@ -29,55 +29,12 @@ import numba
 import numpy as np
 
 from . import status as st
+from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
 from .jit import specialise
-from .physics import departure_direction, normal_term, specific_energy
-from .steppers import STEPPERS
-
-# --- lane state: one flat float64 array, field F of lane i at F * LANES + i ----
-# T, XM, SM: time, position and step count at the start of the current mode
-# (time and path are derived from them, which keeps the hot loop lean);
-# LIMIT: step count at which t_max would be passed; BEFORE: step count at the
-# last scan (a lane that advanced less than N_SUBSTEPS has a pending event);
-# CASCADE: events resolved since the lane last took a full step; VLIM2, ELIM:
-# the divergence bounds on v^2 and on the mechanical energy.
-(X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
- STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM) = range(30)
-N_FIELDS = 30
-
-# --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
-IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)
-N_INPUTS = 9
-
-# --- per-trajectory outputs (per unit mass): rows of float64 (N_OUTPUTS, N) ----
-(OUT_STATUS, OUT_T, OUT_X, OUT_V, OUT_WORK, OUT_ENERGY_LOSS, OUT_PATH,
- OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS) = range(11)
-N_OUTPUTS = 11
-
-# --- scalar settings: float64 array ---------------------------------------------
-SET_XLO, SET_XHI, SET_DT, SET_TMAX = range(4)
-N_SETTINGS = 4
-
-# --- event kinds ----------------------------------------------------------------
-EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOUT = range(7)
-
-#: steps between scalar passes over the lanes
-N_SUBSTEPS = 16
-#: lanes per iteration of the vectorised loop (8 float64 in 512 bits, two
-#: iterations interleaved): the tail of a tile steps whole blocks of this many
-VECTOR_BLOCK = 16
-#: samples of f over the domain used for the divergence speed bound
-N_RANGE_SAMPLES = 33
-#: divergence inside a step: speed above this multiple of the energy bound
-SPEED_BOUND_FACTOR = 10.0
-#: divergence at the end: mechanical energy risen by more than this
-#: share of the energy scale (start kinetic energy plus the ramp's height range
-#: times g).  Friction, drag and a fixed ramp can only remove energy, so only a
-#: step far too large gets there (explicit Euler's energy grows every step).
-ENERGY_RISE_FACTOR = 0.5
-#: divergence: this many events in a row without a full step between them.
-#: With a step far too large the stages sample garbage, and "events" can be
-#: found again and again a sliver into each step: progress stalls.
-MAX_EVENT_CASCADE = 100
+from .physics import acceleration, departure_direction, normal_term, specific_energy
+from . import adaptive as adaptive_parts
+from . import steppers
+from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 
 # bound per scene by build_kernel (compile-time constants)
 step = ramp_height = ramp_slope_curvature = None
@@ -85,10 +42,12 @@ ONE_SIDED = True  # block on top of the ramp (lift-off) rather than a bead on a 
 CHECK_CONTACT = True  # False where n > 0 is known in advance (f'' >= 0)
 CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-evaluate
 LANES = 64  # lanes per block
+ADAPTIVE = False  # an embedded pair with per-lane step sizes (adaptive.py)
+SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
- trial_step) = (None,) * 20
+ trial_step, apply_event, start_adaptive) = (None,) * 22
 
 
 # ------------------------------------------------------------------------------
@@ -146,7 +105,10 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
 # scalar part: events, loading and finishing lanes
 # ------------------------------------------------------------------------------
 def _current_time(lanes, i, h):
-    """t = time at mode start + (steps since) * h: no accumulated rounding."""
+    """t = time at mode start + (steps since) * h: no accumulated rounding.
+    (Adaptive methods keep the current time itself.)"""
+    if ADAPTIVE:
+        return lanes[T * LANES + i]
     return lanes[T * LANES + i] + (lanes[STEPS * LANES + i] - lanes[SM * LANES + i]) * h
 
 
@@ -157,6 +119,8 @@ def _rebase(lanes, i, t_now, settings):
     lanes[S * LANES + i] += lanes[D * LANES + i] * (x - lanes[XM * LANES + i])
     lanes[XM * LANES + i] = x
     lanes[T * LANES + i] = t_now
+    if ADAPTIVE:
+        return
     lanes[SM * LANES + i] = lanes[STEPS * LANES + i]
     remaining = math.floor((settings[SET_TMAX] - t_now) / settings[SET_DT])
     lanes[LIMIT * LANES + i] = lanes[STEPS * LANES + i] + max(remaining, 0.0)
@@ -312,6 +276,8 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     outputs[OUT_NREV, j] = lanes[NREV * LANES + i]
     outputs[OUT_XLIFT, j] = x_lift
     outputs[OUT_STEPS, j] = lanes[STEPS * LANES + i]
+    outputs[OUT_NREJ, j] = lanes[NREJ * LANES + i]
+    outputs[OUT_WORK_ERROR, j] = lanes[EEST * LANES + i]
     make_empty(lanes, i)
 
 
@@ -321,12 +287,17 @@ def _make_empty(lanes, i):
     lanes[D * LANES + i] = 0.0
     lanes[X * LANES + i] = 0.0
     lanes[V * LANES + i] = 0.0
+    lanes[H * LANES + i] = 0.0
+    lanes[PENDING * LANES + i] = 0.0
 
 
 def _set_mode(lanes, i, direction):
     """Direction of motion and signed friction coefficient of the coming mode."""
     lanes[D * LANES + i] = direction
     lanes[Q * LANES + i] = direction * lanes[MUK * LANES + i] * lanes[SN * LANES + i]
+    if ADAPTIVE:  # the first stage of the coming step (f', f'' are current)
+        n = normal_term(lanes[V * LANES + i], lanes[FPP * LANES + i], lanes[G * LANES + i])
+        lanes[A1 * LANES + i] = acceleration(n, lanes[FP * LANES + i], lanes[Q * LANES + i])
 
 
 def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
@@ -362,6 +333,9 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[STEPS * LANES + i] = 0.0
     lanes[NREV * LANES + i] = 0.0
     lanes[CASCADE * LANES + i] = 0.0
+    lanes[NREJ * LANES + i] = 0.0
+    lanes[EEST * LANES + i] = 0.0
+    lanes[PENDING * LANES + i] = 0.0
     lanes[D * LANES + i] = 0.0
     rebase(lanes, i, 0.0, settings)
     lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
@@ -393,6 +367,8 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
         finish_lane(lanes, i, st.EXITED, np.nan, outputs, shared)
         return False
     set_mode(lanes, i, direction)
+    if ADAPTIVE:
+        start_adaptive(lanes, i, settings, shared)
     return True
 
 
@@ -450,23 +426,29 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         return False
 
     # 3. take the partial step to the event and apply the event
-    if best_h > 0.0:
-        apply_step(lanes, i, best_h, shared)
-    t_event = t_max if best_kind == EV_TIMEOUT else t_now + best_h
-    if best_kind == EV_EXIT_HI:
+    return apply_event(lanes, i, best_kind, best_h, t_now, settings, outputs, shared)
+
+
+def _apply_event(lanes, i, kind, h_event, t_now, settings, outputs, shared):
+    """Take the partial step of size h_event (from time t_now) to an event of
+    ``kind`` and apply it.  Returns True if the trajectory goes on."""
+    if h_event > 0.0:
+        apply_step(lanes, i, h_event, shared)
+    t_event = settings[SET_TMAX] if kind == EV_TIMEOUT else t_now + h_event
+    if kind == EV_EXIT_HI:
         lanes[X * LANES + i] = settings[SET_XHI]
-    elif best_kind == EV_EXIT_LO:
+    elif kind == EV_EXIT_LO:
         lanes[X * LANES + i] = settings[SET_XLO]
     rebase(lanes, i, t_event, settings)
-    if best_kind == EV_TIMEOUT:
+    if kind == EV_TIMEOUT:
         finish_lane(lanes, i, st.TIMEOUT, np.nan, outputs, shared)
         return False
-    if best_kind == EV_EXIT_HI or best_kind == EV_EXIT_LO:
+    if kind == EV_EXIT_HI or kind == EV_EXIT_LO:
         finish_lane(lanes, i, st.EXITED, np.nan, outputs, shared)
         return False
     x = lanes[X * LANES + i]
     fp, fpp = refresh_slope(lanes, i, shared)
-    if best_kind == EV_CONTACT:
+    if kind == EV_CONTACT:
         if ONE_SIDED:
             finish_lane(lanes, i, st.LIFTED_OFF, x, outputs, shared)
             return False
@@ -508,9 +490,12 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
     flagged = 0
     for i in range(n_active):
         v = lanes[V * LANES + i]
+        if ADAPTIVE:
+            pending = lanes[PENDING * LANES + i] > 0.0
+        else:
+            pending = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i] < n_substeps
         attention = (lanes[TRAJ * LANES + i] >= 0.0) & (
-            (lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i] < n_substeps)
-            | (v * v > lanes[VLIM2 * LANES + i]))
+            pending | (v * v > lanes[VLIM2 * LANES + i]))
         flagged += 1 if attention else 0
     if flagged == 0:
         return 0
@@ -521,7 +506,7 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
         advanced = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i]
         if advanced > 0.0:
             lanes[CASCADE * LANES + i] = 0.0
-        if advanced >= n_substeps:
+        if (lanes[PENDING * LANES + i] == 0.0) if ADAPTIVE else (advanced >= n_substeps):
             v = lanes[V * LANES + i]
             if v * v <= lanes[VLIM2 * LANES + i]:
                 continue
@@ -574,8 +559,8 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
     while n_active > 0:
         for i in range(n_active):
             lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
-        advance_lanes(lanes, settings, shared, N_SUBSTEPS, n_active)
-        if scan_lanes(lanes, settings, outputs, shared, N_SUBSTEPS, n_active) == 0:
+        advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
+        if scan_lanes(lanes, settings, outputs, shared, SUBSTEPS, n_active) == 0:
             continue
         if next_j < stop:
             for i in range(LANES):
@@ -616,12 +601,17 @@ def _trace_one(j, inputs, settings, shared, every, trace):
     while running:
         lanes[BEFORE * LANES] = lanes[STEPS * LANES]
         advance_lanes(lanes, settings, shared, 1, 1)
-        event = lanes[STEPS * LANES] == lanes[BEFORE * LANES]
-        if not event:
+        if ADAPTIVE:  # a rejected attempt also takes no step
+            event = lanes[PENDING * LANES] > 0.0
+        else:
+            event = lanes[STEPS * LANES] == lanes[BEFORE * LANES]
+        stepped = lanes[STEPS * LANES] > lanes[BEFORE * LANES]
+        if stepped:
             lanes[CASCADE * LANES] = 0.0
         if event:
             running = resolve_lane(lanes, 0, settings, outputs, shared)
-        if count < max_samples and (event or np.int64(lanes[STEPS * LANES]) % every == 0):
+        if count < max_samples and (
+                event or (stepped and np.int64(lanes[STEPS * LANES]) % every == 0)):
             if running:
                 trace[0, count] = current_time(lanes, 0, h)
                 trace[1, count] = lanes[X * LANES]
@@ -636,18 +626,26 @@ def _trace_one(j, inputs, settings, shared, every, trace):
     return count
 
 
+def _no_adaptive_start(lanes, i, settings, shared):
+    """Fixed-step methods have no step-control state."""
+
+
 def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
                  one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
                  lanes: int = 64, cache: bool = True):
     """Compile (or load from numba's on-disk cache) the kernels for one scene.
 
-    ``name`` must identify the ramp functions uniquely (the family name for
-    built-in families).  Returns ``(run_batch, trace_one)``:
+    ``method`` is a fixed-step method of ``steppers.STEPPERS`` or an adaptive
+    pair of ``steppers.ADAPTIVE_STEPPERS`` (which always carries f', f'':
+    its last stage evaluates them at the new state anyway).  ``name`` must
+    identify the ramp functions uniquely (the family name for built-in
+    families).  Returns ``(run_batch, trace_one)``:
     ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
     ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n) in parallel;
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
-    template, _order = STEPPERS[method]
+    adaptive = method in ADAPTIVE_STEPPERS
+    carry_slope = carry_slope or adaptive
     flags = (("one" if one_sided else "two") + ("_contact" if check_contact else "")
              + ("_carry" if carry_slope else ""))
     variant = f"{name}_{method}_{flags}_{lanes}"
@@ -658,6 +656,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "CHECK_CONTACT": check_contact,
         "CARRY_SLOPE": carry_slope,
         "LANES": lanes,
+        "ADAPTIVE": adaptive,
+        "SUBSTEPS": N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS,
     }
 
     def add(key, function, **options):
@@ -670,17 +670,42 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     # itself (measured: 20-25 % of the whole run on an event-rich sweep).
     no_refcount = {"_nrt": False}
 
-    add("step", template, **no_refcount)
-    for key, function in (
+    if adaptive:
+        step_template, _order, dense_template = ADAPTIVE_STEPPERS[method]
+        # LLVM's inliner refuses functions this large, and a call in the lane
+        # loop stops it vectorising: inline them in numba's IR instead
+        inline = {**no_refcount, "inline": "always"}
+        add("_stage", steppers._stage, **inline)
+        add("_dopri5_stages", steppers._dopri5_stages, **inline)
+        add("step", step_template, **inline)
+        add("dense_output", dense_template, **no_refcount)
+        method_parts = (
+            ("error_norm2", adaptive_parts._error_norm2),
+            ("trial_step", adaptive_parts._trial_step_adaptive),
+            ("apply_step", adaptive_parts._apply_step_adaptive),
+            ("start_adaptive", adaptive_parts._start_adaptive),
+            ("dense_value", adaptive_parts._dense_value),
+            ("locate_dense", adaptive_parts._locate_dense),
+        )
+    else:
+        add("step", STEPPERS[method][0], **no_refcount)
+        method_parts = (
+            ("start_value", _start_value), ("trial_step", _trial_step),
+            ("event_values", _event_values), ("event_value", _event_value),
+            ("locate_event", _locate_event), ("apply_step", _apply_step),
+            ("start_adaptive", _no_adaptive_start),
+        )
+    for key, function in method_parts + (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
-        ("set_mode", _set_mode), ("start_value", _start_value), ("trial_step", _trial_step),
-        ("event_values", _event_values), ("event_value", _event_value),
-        ("refresh_slope", _refresh_slope), ("locate_event", _locate_event),
-        ("apply_step", _apply_step), ("finish_lane", _finish_lane), ("load_lane", _load_lane),
-        ("resolve_lane", _resolve_lane), ("fill_lane", _fill_lane),
-        ("advance_lanes", _advance_lanes), ("scan_lanes", _scan_lanes),
-        ("compact_lanes", _compact_lanes), ("active_span", _active_span),
-        ("run_tile", _run_tile),
+        ("set_mode", _set_mode), ("refresh_slope", _refresh_slope),
+        ("finish_lane", _finish_lane), ("apply_event", _apply_event),
+        ("load_lane", _load_lane),
+        ("resolve_lane", adaptive_parts._resolve_lane_adaptive if adaptive else _resolve_lane),
+        ("fill_lane", _fill_lane),
+        ("advance_lanes",
+         adaptive_parts._advance_lanes_adaptive if adaptive else _advance_lanes),
+        ("scan_lanes", _scan_lanes), ("compact_lanes", _compact_lanes),
+        ("active_span", _active_span), ("run_tile", _run_tile),
     ):
         add(key, function, **({} if key == "run_tile" else no_refcount))
     run_batch = add("run_batch", _run_batch, parallel=True)

@@ -17,7 +17,7 @@ step, or re-evaluated where that is cheaper).  The global
 ``specialise``.
 """
 
-from .jit import fma
+from .jit import fma, jit
 from .physics import acceleration, normal_term
 
 ramp_slope_curvature = None  # bound per scene by jit.specialise
@@ -76,4 +76,113 @@ STEPPERS = {
     "euler": (euler_step, 1),
     "semi_implicit_euler": (semi_implicit_euler_step, 1),
     "rk4": (rk4_step, 4),
+}
+
+
+# ------------------------------------------------------------------------------
+# Dormand-Prince 5(4): embedded pair with a 4th-order dense output
+# ------------------------------------------------------------------------------
+# Butcher tableau (Dormand & Prince 1980); the 7th stage is evaluated at the
+# new state, so it is the next step's first ("first same as last").
+A21 = 1 / 5
+A31, A32 = 3 / 40, 9 / 40
+A41, A42, A43 = 44 / 45, -56 / 15, 32 / 9
+A51, A52, A53, A54 = 19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729
+A61, A62, A63, A64, A65 = 9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656
+B1, B3, B4, B5, B6 = 35 / 384, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84
+# error weights: 5th-order minus embedded 4th-order solution
+E1, E3, E4, E5, E6, E7 = (71 / 57600, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525,
+                          -1 / 40)
+# dense output y(t0 + theta h) = y0 + h sum_j theta^j sum_s k_s P[s][j-1]
+# (Shampine's 4th-order continuous extension, as in scipy's RK45)
+P1 = (1.0, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432)
+P3 = (0.0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799)
+P4 = (0.0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072)
+P5 = (0.0, 127303824393 / 49829197408, -318862633887 / 49829197408,
+      701980252875 / 199316789632)
+P6 = (0.0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844)
+P7 = (0.0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423)
+
+
+def _stage(x, v, q, g, p0, p1, p2, p3, shared):
+    """f', f'', n and the acceleration at one stage point."""
+    fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    n = normal_term(v, fpp, g)
+    return fp, fpp, n, acceleration(n, fp, q)
+
+
+def _dopri5_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared):
+    """The stages of one Dormand-Prince step: the 7th is at the new state
+    ``(x7, v7)``.  Returns ``(v2..v7, a2..a7, n1, n3..n7, fpp3..fpp7, fp7)``
+    (stage 2 only feeds the later stages)."""
+    n1 = normal_term(v, fpp, g)
+    x2 = fma(h * A21, v, x)
+    v2 = fma(h * A21, a1, v)
+    _, _, _, a2 = _stage(x2, v2, q, g, p0, p1, p2, p3, shared)
+    x3 = x + h * (A31 * v + A32 * v2)
+    v3 = v + h * (A31 * a1 + A32 * a2)
+    _, fpp3, n3, a3 = _stage(x3, v3, q, g, p0, p1, p2, p3, shared)
+    x4 = x + h * (A41 * v + A42 * v2 + A43 * v3)
+    v4 = v + h * (A41 * a1 + A42 * a2 + A43 * a3)
+    _, fpp4, n4, a4 = _stage(x4, v4, q, g, p0, p1, p2, p3, shared)
+    x5 = x + h * (A51 * v + A52 * v2 + A53 * v3 + A54 * v4)
+    v5 = v + h * (A51 * a1 + A52 * a2 + A53 * a3 + A54 * a4)
+    _, fpp5, n5, a5 = _stage(x5, v5, q, g, p0, p1, p2, p3, shared)
+    x6 = x + h * (A61 * v + A62 * v2 + A63 * v3 + A64 * v4 + A65 * v5)
+    v6 = v + h * (A61 * a1 + A62 * a2 + A63 * a3 + A64 * a4 + A65 * a5)
+    _, fpp6, n6, a6 = _stage(x6, v6, q, g, p0, p1, p2, p3, shared)
+    x7 = x + h * (B1 * v + B3 * v3 + B4 * v4 + B5 * v5 + B6 * v6)
+    v7 = v + h * (B1 * a1 + B3 * a3 + B4 * a4 + B5 * a5 + B6 * a6)
+    fp7, fpp7, n7, a7 = _stage(x7, v7, q, g, p0, p1, p2, p3, shared)
+    return (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
+            fpp3, fpp4, fpp5, fpp6, fpp7, fp7)
+
+
+def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
+    """One Dormand-Prince step of size h from (x, v), whose acceleration a1 is
+    carried from the previous step (FSAL).  Returns
+
+        (x_new, v_new, friction_work, curvature_integral,
+         a_new, fp_new, fpp_new, err_x, err_v, err_work, err_curvature)
+
+    the integrals' increments as in the fixed-step methods (5th order), the
+    acceleration and f', f'' at the new state (the next step's first stage) and
+    the embedded error estimate of each of the four components."""
+    (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
+     fpp3, fpp4, fpp5, fpp6, fpp7, fp7) = _dopri5_stages(x, v, fpp, a1, q, h, g,
+                                                          p0, p1, p2, p3, shared)
+    w1, w3, w4, w5, w6, w7 = n1 * v, n3 * v3, n4 * v4, n5 * v5, n6 * v6, n7 * v7
+    k1, k3, k4, k5, k6, k7 = fpp * v, fpp3 * v3, fpp4 * v4, fpp5 * v5, fpp6 * v6, fpp7 * v7
+    qh = q * h
+    dh = d * h
+    work = qh * (B1 * w1 + B3 * w3 + B4 * w4 + B5 * w5 + B6 * w6)
+    curvature = dh * (B1 * k1 + B3 * k3 + B4 * k4 + B5 * k5 + B6 * k6)
+    err_x = h * (E1 * v + E3 * v3 + E4 * v4 + E5 * v5 + E6 * v6 + E7 * v7)
+    err_v = h * (E1 * a1 + E3 * a3 + E4 * a4 + E5 * a5 + E6 * a6 + E7 * a7)
+    err_work = qh * (E1 * w1 + E3 * w3 + E4 * w4 + E5 * w5 + E6 * w6 + E7 * w7)
+    err_curvature = dh * (E1 * k1 + E3 * k3 + E4 * k4 + E5 * k5 + E6 * k6 + E7 * k7)
+    return (x7, v7, work, curvature, a7, fp7, fpp7, err_x, err_v, err_work, err_curvature)
+
+
+def dopri5_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
+    """Coefficients of the step's dense output: x(theta) = x + h sum_j cx_j
+    theta^j and v(theta) = v + h sum_j cv_j theta^j, j = 1..4 (4th order, exact
+    at both ends), as ``(cx1, cx2, cx3, cx4, cv1, cv2, cv3, cv4)``."""
+    (_, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, _, _, _, _, _, _,
+     _, _, _, _, _, _) = _dopri5_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared)
+    return (_dense_row(0, v, v3, v4, v5, v6, v7), _dense_row(1, v, v3, v4, v5, v6, v7),
+            _dense_row(2, v, v3, v4, v5, v6, v7), _dense_row(3, v, v3, v4, v5, v6, v7),
+            _dense_row(0, a1, a3, a4, a5, a6, a7), _dense_row(1, a1, a3, a4, a5, a6, a7),
+            _dense_row(2, a1, a3, a4, a5, a6, a7), _dense_row(3, a1, a3, a4, a5, a6, a7))
+
+
+@jit
+def _dense_row(j, k1, k3, k4, k5, k6, k7):
+    """sum_s k_s P[s][j] over the stages that enter the dense output."""
+    return P1[j] * k1 + P3[j] * k3 + P4[j] * k4 + P5[j] * k5 + P6[j] * k6 + P7[j] * k7
+
+
+#: adaptive method name -> (step template, order, dense-output template)
+ADAPTIVE_STEPPERS = {
+    "dopri5": (dopri5_step, 5, dopri5_dense),
 }

@@ -1,0 +1,295 @@
+"""The adaptive lane kernel's own parts: per-lane step sizes with error control.
+
+The frame is the fixed-step kernel's (``kernel.py``: lanes, scans, loading,
+finishing, event application); :func:`kernel.build_kernel` binds these
+templates in place of the fixed-step ones for an embedded pair such as
+Dormand-Prince 5(4).
+
+In the vector loop every lane attempts one step of its own size ``H`` per
+iteration and, without a branch, either commits it (error norm <= 1, no event
+inside), rejects it (error norm > 1, or a state that is not finite or breaks
+the speed bound) or freezes on it (accepted but an event happens inside).  The
+step size is updated by the PI controller of ``control.py`` in every case but
+the freeze, so a frozen lane recomputes the same step until the scalar pass
+locates the event on the step's dense output, takes the partial step to it and
+applies it.  No lane waits for another: each carries its own step size, time
+and counts.
+
+Templates: ``step``, ``dense_output``, ``ramp_slope_curvature`` and the helper
+names are globals bound per scene by ``build_kernel`` through
+``jit.specialise``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import status as st
+from .control import ERROR_FLOOR, ERROR_TINY, FACTOR_MIN, log2_approx, step_factor
+from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
+from .physics import acceleration, normal_term
+
+# bound per scene by kernel.build_kernel
+step = dense_output = ramp_slope_curvature = None
+CHECK_CONTACT = True
+LANES = 64
+(error_norm2, trial_step, apply_step, apply_event, rebase, finish_lane, dense_value,
+ locate_dense) = (None,) * 8
+
+#: log2 of an error norm that is not finite, or of a step that left the speed
+#: bound: large enough that the step shrinks by the controller's largest factor
+LOG2_ERROR_BAD = 1.0e3
+LOG2_ERROR_FLOOR = math.log2(ERROR_FLOOR)
+#: the error norm's denominator is a product of eight scales; with atol >=
+#: 1e-20 it stays far from underflow
+ERROR_NORM_BAD = 1.0e300
+
+
+def _error_norm2(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k, rtol, atol):
+    """Mean of the squared scaled errors of (x, v, friction work, curvature
+    integral), each scaled by atol + rtol * max(|start|, |end|).
+
+    Written with one division (the four scales' products in a common
+    denominator): divisions are what bound the lane loop."""
+    sx = atol + rtol * max(abs(x), abs(x1))
+    sv = atol + rtol * max(abs(v), abs(v1))
+    sw = atol + rtol * max(abs(w), abs(w1))
+    sk = atol + rtol * max(abs(k), abs(k1))
+    ex, ev, ew, ek = err_x * sv, err_v * sx, err_w * sk, err_k * sw
+    xv = sx * sv
+    wk = sw * sk
+    xv2 = xv * xv
+    wk2 = wk * wk
+    return 0.25 * ((ex * ex + ev * ev) * wk2 + (ew * ew + ek * ek) * xv2) / (xv2 * wk2)
+
+
+# ------------------------------------------------------------------------------
+# vector part
+# ------------------------------------------------------------------------------
+def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
+    """``n_attempts`` step attempts on lanes 0 .. n_active-1, each lane with its
+    own step size.  Branch-free per lane, as in the fixed-step kernel: the
+    outcome (commit, reject or freeze) is selected, not branched on."""
+    x_lo = settings[SET_XLO]
+    x_hi = settings[SET_XHI]
+    t_max = settings[SET_TMAX]
+    rtol = settings[SET_RTOL]
+    atol = settings[SET_ATOL]
+    h_max = settings[SET_HMAX]
+    h_min = settings[SET_HMIN]
+    for _ in range(n_attempts):
+        for i in range(n_active):
+            x = lanes[X * LANES + i]
+            v = lanes[V * LANES + i]
+            d = lanes[D * LANES + i]
+            g = lanes[G * LANES + i]
+            fp = lanes[FP * LANES + i]
+            fpp = lanes[FPP * LANES + i]
+            a1 = lanes[A1 * LANES + i]
+            h = lanes[H * LANES + i]
+            t = lanes[T * LANES + i]
+            w = lanes[W * LANES + i]
+            k = lanes[K * LANES + i]
+            frozen = lanes[PENDING * LANES + i] > 0.0
+            x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek = step(
+                x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
+                lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+            w1 = w + dw
+            k1 = k + dk
+            err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, rtol, atol)
+            bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
+            accepted = bounded & (err2 <= 1.0)
+            event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
+            if CHECK_CONTACT:
+                event = event | (not lanes[SN * LANES + i] * normal_term(v1, fpp7, g) > 0.0)
+            commit = accepted & (not event) & (not frozen)
+            hold = frozen | (accepted & event)
+            log2_error = (0.5 * log2_approx(err2 if err2 > ERROR_TINY else ERROR_TINY)
+                          if bounded else LOG2_ERROR_BAD)
+            factor = step_factor(log2_error, lanes[LERR * LANES + i], accepted,
+                                 lanes[REJ * LANES + i] > 0.0)
+            h_new = min(h * factor, h_max)
+            lanes[X * LANES + i] = x1 if commit else x
+            lanes[V * LANES + i] = v1 if commit else v
+            lanes[W * LANES + i] = w1 if commit else w
+            lanes[K * LANES + i] = k1 if commit else k
+            lanes[FP * LANES + i] = fp7 if commit else fp
+            lanes[FPP * LANES + i] = fpp7 if commit else fpp
+            lanes[A1 * LANES + i] = a7 if commit else a1
+            lanes[T * LANES + i] = t + h if commit else t
+            lanes[STEPS * LANES + i] += 1.0 if commit else 0.0
+            lanes[EEST * LANES + i] += abs(ew) if commit else 0.0
+            lanes[LERR * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit
+                                       else lanes[LERR * LANES + i])
+            lanes[NREJ * LANES + i] += 0.0 if (accepted | frozen) else 1.0
+            lanes[REJ * LANES + i] = lanes[REJ * LANES + i] if hold else (0.0 if accepted else 1.0)
+            lanes[H * LANES + i] = h if hold else h_new
+            lanes[PENDING * LANES + i] = 1.0 if (hold | (h_new < h_min)) else 0.0
+
+
+# ------------------------------------------------------------------------------
+# scalar part
+# ------------------------------------------------------------------------------
+def _trial_step_adaptive(lanes, i, h, shared):
+    """One step of size h from lane i's state, not committed (the stepper's
+    full tuple)."""
+    return step(
+        lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
+        lanes[A1 * LANES + i], lanes[Q * LANES + i], lanes[D * LANES + i], h,
+        lanes[G * LANES + i], lanes[P0 * LANES + i], lanes[P1 * LANES + i],
+        lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+
+
+def _apply_step_adaptive(lanes, i, h, shared):
+    """One step of size h from lane i's state, committed (events only)."""
+    x1, v1, dw, dk, a7, fp7, fpp7, _, _, ew, _ = trial_step(lanes, i, h, shared)
+    lanes[X * LANES + i] = x1
+    lanes[V * LANES + i] = v1
+    lanes[W * LANES + i] += dw
+    lanes[K * LANES + i] += dk
+    lanes[FP * LANES + i] = fp7
+    lanes[FPP * LANES + i] = fpp7
+    lanes[A1 * LANES + i] = a7
+    lanes[T * LANES + i] += h
+    lanes[STEPS * LANES + i] += 1.0
+    lanes[EEST * LANES + i] += abs(ew)
+
+
+def _start_adaptive(lanes, i, settings, shared):
+    """Step-control state of a freshly loaded lane (after its mode is set).
+
+    The first step is the user's, or estimated as in Hairer, Norsett & Wanner
+    ("Solving ODEs I", II.4): from the sizes of the state, its derivative and
+    the derivative's change over a small explicit Euler step, for x and v."""
+    lanes[LERR * LANES + i] = LOG2_ERROR_FLOOR
+    lanes[REJ * LANES + i] = 0.0
+    lanes[PENDING * LANES + i] = 0.0
+    h_max = settings[SET_HMAX]
+    if settings[SET_DT] > 0.0:
+        lanes[H * LANES + i] = min(settings[SET_DT], h_max)
+        return
+    rtol = settings[SET_RTOL]
+    atol = settings[SET_ATOL]
+    x = lanes[X * LANES + i]
+    v = lanes[V * LANES + i]
+    a = lanes[A1 * LANES + i]
+    sx = atol + rtol * abs(x)
+    sv = atol + rtol * abs(v)
+    d0 = math.sqrt(0.5 * ((x / sx) ** 2 + (v / sv) ** 2))
+    d1 = math.sqrt(0.5 * ((v / sx) ** 2 + (a / sv) ** 2))
+    h0 = 0.01 * d0 / d1 if (d0 >= 1e-5 and d1 >= 1e-5) else 1e-6
+    h0 = min(h0, h_max)
+    # f at an explicit Euler step h0 ahead (d as set by the mode)
+    x1 = x + h0 * v
+    v1 = v + h0 * a
+    fp1, fpp1 = ramp_slope_curvature(x1, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
+                                     lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+    a_1 = acceleration(normal_term(v1, fpp1, lanes[G * LANES + i]), fp1, lanes[Q * LANES + i])
+    d2 = math.sqrt(0.5 * (((v1 - v) / sx) ** 2 + ((a_1 - a) / sv) ** 2)) / h0
+    if not math.isfinite(d2):
+        d2 = 0.0
+    if max(d1, d2) <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** 0.2
+    lanes[H * LANES + i] = min(100.0 * h0, h1, h_max)
+
+
+def _dense_value(kind, lanes, i, dense, h, theta, settings, shared):
+    """Event function ``kind`` on the dense output at theta in [0, 1] of a step
+    of size h from lane i's state (``dense``: the stepper's coefficients)."""
+    cx1, cx2, cx3, cx4, cv1, cv2, cv3, cv4 = dense
+    x = lanes[X * LANES + i] + h * theta * (cx1 + theta * (cx2 + theta * (cx3 + theta * cx4)))
+    if kind == EV_EXIT_HI:
+        return settings[SET_XHI] - x
+    if kind == EV_EXIT_LO:
+        return x - settings[SET_XLO]
+    v = lanes[V * LANES + i] + h * theta * (cv1 + theta * (cv2 + theta * (cv3 + theta * cv4)))
+    if kind == EV_REVERSAL:
+        return lanes[D * LANES + i] * v
+    _, fpp = ramp_slope_curvature(x, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
+                                  lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+    return lanes[SN * LANES + i] * normal_term(v, fpp, lanes[G * LANES + i])
+
+
+def _locate_dense(kind, lanes, i, dense, h, value_end, settings, shared):
+    """Smallest theta in (0, 1] at which event ``kind`` has happened on the
+    step's dense output (Illinois, to a bracket of a few rounding units; the
+    dense output itself is accurate to the tolerance).  Returns the bracket
+    end on the event side; 0 if the event holds at the step start."""
+    a = 0.0
+    fa = dense_value(kind, lanes, i, dense, h, 0.0, settings, shared)
+    if not fa > 0.0:
+        return 0.0
+    b = 1.0
+    fb = value_end
+    side = 0
+    for _ in range(100):
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b):
+            c = 0.5 * (a + b)
+        if not (a < c < b):
+            break
+        fc = dense_value(kind, lanes, i, dense, h, c, settings, shared)
+        if fc > 0.0:
+            a = c
+            fa = fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        else:
+            b = c
+            fb = fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+            if fc == 0.0:
+                break
+        if b - a <= 4.0e-16:
+            break
+    return b
+
+
+def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
+    """Handle lane i's frozen step: locate the earliest event inside it on the
+    dense output, step to it and apply it.  Returns True if the trajectory goes
+    on, False if it finished."""
+    t_now = lanes[T * LANES + i]
+    t_max = settings[SET_TMAX]
+    lanes[PENDING * LANES + i] = 0.0
+    lanes[CASCADE * LANES + i] += 1.0
+    h = lanes[H * LANES + i]
+    if lanes[CASCADE * LANES + i] > MAX_EVENT_CASCADE or not h >= settings[SET_HMIN]:
+        # the step size collapsed, or events keep coming without progress
+        rebase(lanes, i, t_now, settings)
+        finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
+        return False
+    h_end = min(h, t_max - t_now)
+    x1, v1, _, _, _, _, fpp1, _, _, _, _ = trial_step(lanes, i, h_end, shared)
+    contact = (lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
+               if CHECK_CONTACT else 1.0)
+    values = (x1 - settings[SET_XLO], settings[SET_XHI] - x1, contact, lanes[D * LANES + i] * v1)
+    best_kind = EV_NONE
+    best_theta = 1.0
+    if not (values[0] > 0.0 and values[1] > 0.0 and values[2] > 0.0 and values[3] > 0.0):
+        dense = dense_output(
+            lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i],
+            lanes[FPP * LANES + i], lanes[A1 * LANES + i], lanes[Q * LANES + i],
+            lanes[D * LANES + i], h_end, lanes[G * LANES + i], lanes[P0 * LANES + i],
+            lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+        for k in range(4):
+            if not values[k] > 0.0:
+                kind = np.int64(EV_EXIT_LO + k)  # one argument type: one compilation
+                theta = locate_dense(kind, lanes, i, dense, h_end, values[k], settings, shared)
+                if best_kind == EV_NONE or theta < best_theta:
+                    best_theta = theta
+                    best_kind = kind
+    if best_kind == EV_NONE:
+        if t_now + h >= t_max:  # the step reaches t_max with nothing before
+            return apply_event(lanes, i, np.int64(EV_TIMEOUT), t_max - t_now, t_now,
+                               settings, outputs, shared)
+        return True  # nothing here any more (cannot happen: the frozen step is recomputed)
+    h_event = h_end if best_theta >= 1.0 else best_theta * h_end
+    return apply_event(lanes, i, best_kind, h_event, t_now, settings, outputs, shared)

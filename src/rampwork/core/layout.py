@@ -1,0 +1,62 @@
+"""Where things live in the lane kernels' flat arrays (shared by the
+fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
+
+# --- lane state: one flat float64 array, field F of lane i at F * LANES + i ----
+# T, XM, SM: time, position and step count at the start of the current mode
+# (time and path are derived from them, which keeps the hot loop lean);
+# LIMIT: step count at which t_max would be passed; BEFORE: step count at the
+# last scan (a lane that advanced less than N_SUBSTEPS has a pending event);
+# CASCADE: events resolved since the lane last took a full step; VLIM2, ELIM:
+# the divergence bounds on v^2 and on the mechanical energy.
+# Adaptive methods only: H, the lane's next step size; LERR, log2 of the last
+# accepted error norm (the PI term); REJ, 1 if the last attempt was rejected;
+# NREJ, rejected attempts; A1, the acceleration at the current state (first
+# stage, carried over from the last stage); EEST, the sum of the accepted
+# steps' error estimates of the friction work; PENDING, 1 while the lane's
+# step holds an event (or its step size collapsed); T is then the current time.
+(X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
+ STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
+ H, LERR, REJ, NREJ, A1, EEST, PENDING) = range(37)
+N_FIELDS = 37
+
+# --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
+IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)
+N_INPUTS = 9
+
+# --- per-trajectory outputs (per unit mass): rows of float64 (N_OUTPUTS, N) ----
+(OUT_STATUS, OUT_T, OUT_X, OUT_V, OUT_WORK, OUT_ENERGY_LOSS, OUT_PATH,
+ OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS, OUT_NREJ, OUT_WORK_ERROR) = range(13)
+N_OUTPUTS = 13
+
+# --- scalar settings: float64 array ---------------------------------------------
+# SET_DT: the fixed step, or an adaptive method's first step (0: estimate it);
+# SET_HMAX, SET_HMIN: an adaptive method's largest step and the size below
+# which a collapsing step counts as divergence
+SET_XLO, SET_XHI, SET_DT, SET_TMAX, SET_RTOL, SET_ATOL, SET_HMAX, SET_HMIN = range(8)
+N_SETTINGS = 8
+
+# --- event kinds ----------------------------------------------------------------
+EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOUT = range(7)
+
+#: steps between scalar passes over the lanes (fixed-step methods), and attempted
+#: steps between them for adaptive methods: a lane whose step holds an event
+#: waits for the next pass, so fewer, costlier steps want more frequent passes
+N_SUBSTEPS = 16
+N_SUBSTEPS_ADAPTIVE = 4
+#: lanes per iteration of the vectorised loop (8 float64 in 512 bits, two
+#: iterations interleaved): the tail of a tile steps whole blocks of this many
+VECTOR_BLOCK = 16
+#: samples of f over the domain used for the divergence speed bound
+N_RANGE_SAMPLES = 33
+#: divergence inside a step: speed above this multiple of the energy bound
+SPEED_BOUND_FACTOR = 10.0
+#: divergence at the end: mechanical energy risen by more than this
+#: share of the energy scale (start kinetic energy plus the ramp's height range
+#: times g).  Friction, drag and a fixed ramp can only remove energy, so only a
+#: step far too large gets there (explicit Euler's energy grows every step).
+ENERGY_RISE_FACTOR = 0.5
+#: divergence: this many events in a row without a full step between them.
+#: With a step far too large the stages sample garbage, and "events" can be
+#: found again and again a sliver into each step: progress stalls.
+MAX_EVENT_CASCADE = 100
+
