@@ -36,7 +36,7 @@ step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 LANES = 64
 (error_norm2, trial_step, apply_step, apply_event, rebase, finish_lane, dense_value,
- locate_dense) = (None,) * 8
+ locate_dense, attempt) = (None,) * 9
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -70,8 +70,13 @@ def _error_norm2(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k, rtol, a
 # ------------------------------------------------------------------------------
 def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
     """``n_attempts`` step attempts on lanes 0 .. n_active-1, each lane with its
-    own step size.  Branch-free per lane, as in the fixed-step kernel: the
-    outcome (commit, reject or freeze) is selected, not branched on."""
+    own step size.
+
+    Each attempt is a chain of seven dependent divisions (about 500 cycles of
+    latency for one vector of lanes), longer than the core's reorder window,
+    so one vector at a time leaves the divider idle.  The loop therefore
+    carries the two halves of the block side by side: two independent chains.
+    (Empty lanes step too: they never commit.)"""
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     t_max = settings[SET_TMAX]
@@ -79,54 +84,67 @@ def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
     atol = settings[SET_ATOL]
     h_max = settings[SET_HMAX]
     h_min = settings[SET_HMIN]
-    for _ in range(n_attempts):
-        for i in range(n_active):
-            x = lanes[X * LANES + i]
-            v = lanes[V * LANES + i]
-            d = lanes[D * LANES + i]
-            g = lanes[G * LANES + i]
-            fp = lanes[FP * LANES + i]
-            fpp = lanes[FPP * LANES + i]
-            a1 = lanes[A1 * LANES + i]
-            h = lanes[H * LANES + i]
-            t = lanes[T * LANES + i]
-            w = lanes[W * LANES + i]
-            k = lanes[K * LANES + i]
-            frozen = lanes[PENDING * LANES + i] > 0.0
-            x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek = step(
-                x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
-                lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
-            w1 = w + dw
-            k1 = k + dk
-            err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, rtol, atol)
-            bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
-            accepted = bounded & (err2 <= 1.0)
-            event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
-            if CHECK_CONTACT:
-                event = event | (not lanes[SN * LANES + i] * normal_term(v1, fpp7, g) > 0.0)
-            commit = accepted & (not event) & (not frozen)
-            hold = frozen | (accepted & event)
-            log2_error = (0.5 * log2_approx(err2 if err2 > ERROR_TINY else ERROR_TINY)
-                          if bounded else LOG2_ERROR_BAD)
-            factor = step_factor(log2_error, lanes[LERR * LANES + i], accepted,
-                                 lanes[REJ * LANES + i] > 0.0)
-            h_new = min(h * factor, h_max)
-            lanes[X * LANES + i] = x1 if commit else x
-            lanes[V * LANES + i] = v1 if commit else v
-            lanes[W * LANES + i] = w1 if commit else w
-            lanes[K * LANES + i] = k1 if commit else k
-            lanes[FP * LANES + i] = fp7 if commit else fp
-            lanes[FPP * LANES + i] = fpp7 if commit else fpp
-            lanes[A1 * LANES + i] = a7 if commit else a1
-            lanes[T * LANES + i] = t + h if commit else t
-            lanes[STEPS * LANES + i] += 1.0 if commit else 0.0
-            lanes[EEST * LANES + i] += abs(ew) if commit else 0.0
-            lanes[LERR * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit
-                                       else lanes[LERR * LANES + i])
-            lanes[NREJ * LANES + i] += 0.0 if (accepted | frozen) else 1.0
-            lanes[REJ * LANES + i] = lanes[REJ * LANES + i] if hold else (0.0 if accepted else 1.0)
-            lanes[H * LANES + i] = h if hold else h_new
-            lanes[PENDING * LANES + i] = 1.0 if (hold | (h_new < h_min)) else 0.0
+    if n_active > LANES // 2:
+        for _ in range(n_attempts):
+            for i in range(LANES // 2):  # constant offsets: provably disjoint halves
+                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min)
+                attempt(lanes, i + LANES // 2, shared, x_lo, x_hi, t_max, rtol, atol,
+                        h_max, h_min)
+    else:  # a tile's tail
+        for _ in range(n_attempts):
+            for i in range(n_active):
+                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min)
+
+
+def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
+    """One step attempt on lane i.  Branch-free, as in the fixed-step kernel:
+    the outcome (commit, reject or freeze) is selected, not branched on."""
+    x = lanes[X * LANES + i]
+    v = lanes[V * LANES + i]
+    d = lanes[D * LANES + i]
+    g = lanes[G * LANES + i]
+    fp = lanes[FP * LANES + i]
+    fpp = lanes[FPP * LANES + i]
+    a1 = lanes[A1 * LANES + i]
+    h = lanes[H * LANES + i]
+    t = lanes[T * LANES + i]
+    w = lanes[W * LANES + i]
+    k = lanes[K * LANES + i]
+    frozen = lanes[PENDING * LANES + i] > 0.0
+    x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek = step(
+        x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
+        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+    w1 = w + dw
+    k1 = k + dk
+    err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, rtol, atol)
+    bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
+    accepted = bounded & (err2 <= 1.0)
+    event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
+    if CHECK_CONTACT:
+        event = event | (not lanes[SN * LANES + i] * normal_term(v1, fpp7, g) > 0.0)
+    commit = accepted & (not event) & (not frozen)
+    hold = frozen | (accepted & event)
+    log2_error = (0.5 * log2_approx(err2 if err2 > ERROR_TINY else ERROR_TINY)
+                  if bounded else LOG2_ERROR_BAD)
+    factor = step_factor(log2_error, lanes[LERR * LANES + i], accepted,
+                         lanes[REJ * LANES + i] > 0.0)
+    h_new = min(h * factor, h_max)
+    lanes[X * LANES + i] = x1 if commit else x
+    lanes[V * LANES + i] = v1 if commit else v
+    lanes[W * LANES + i] = w1 if commit else w
+    lanes[K * LANES + i] = k1 if commit else k
+    lanes[FP * LANES + i] = fp7 if commit else fp
+    lanes[FPP * LANES + i] = fpp7 if commit else fpp
+    lanes[A1 * LANES + i] = a7 if commit else a1
+    lanes[T * LANES + i] = t + h if commit else t
+    lanes[STEPS * LANES + i] += 1.0 if commit else 0.0
+    lanes[EEST * LANES + i] += abs(ew) if commit else 0.0
+    lanes[LERR * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit
+                               else lanes[LERR * LANES + i])
+    lanes[NREJ * LANES + i] += 0.0 if (accepted | frozen) else 1.0
+    lanes[REJ * LANES + i] = lanes[REJ * LANES + i] if hold else (0.0 if accepted else 1.0)
+    lanes[H * LANES + i] = h if hold else h_new
+    lanes[PENDING * LANES + i] = 1.0 if (hold | (h_new < h_min)) else 0.0
 
 
 # ------------------------------------------------------------------------------

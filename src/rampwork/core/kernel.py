@@ -681,6 +681,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         add("dense_output", dense_template, **no_refcount)
         method_parts = (
             ("error_norm2", adaptive_parts._error_norm2),
+            ("attempt", adaptive_parts._attempt),
             ("trial_step", adaptive_parts._trial_step_adaptive),
             ("apply_step", adaptive_parts._apply_step_adaptive),
             ("start_adaptive", adaptive_parts._start_adaptive),
@@ -707,7 +708,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         ("scan_lanes", _scan_lanes), ("compact_lanes", _compact_lanes),
         ("active_span", _active_span), ("run_tile", _run_tile),
     ):
-        add(key, function, **({} if key == "run_tile" else no_refcount))
+        options = {} if key == "run_tile" else dict(no_refcount)
+        add(key, function, **options)
     run_batch = add("run_batch", _run_batch, parallel=True)
     trace_one = add("trace_one", _trace_one)
     return run_batch, trace_one
