@@ -36,7 +36,7 @@ step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 LANES = 64
 (error_norm2, trial_step, apply_step, apply_event, rebase, finish_lane, dense_value,
- locate_dense, attempt) = (None,) * 9
+ locate_dense, attempt, dense_point) = (None,) * 10
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -215,16 +215,22 @@ def _start_adaptive(lanes, i, settings, shared):
     lanes[H * LANES + i] = min(100.0 * h0, h1, h_max)
 
 
+def _dense_point(dense, h, theta, offset):
+    """Increment over [0, theta] of the dense output's component at ``offset``
+    (0: x, 4: v, 8: friction work, 12: curvature integral)."""
+    return h * theta * (dense[offset] + theta * (dense[offset + 1] + theta * (
+        dense[offset + 2] + theta * dense[offset + 3])))
+
+
 def _dense_value(kind, lanes, i, dense, h, theta, settings, shared):
     """Event function ``kind`` on the dense output at theta in [0, 1] of a step
-    of size h from lane i's state (``dense``: the stepper's coefficients)."""
-    cx1, cx2, cx3, cx4, cv1, cv2, cv3, cv4 = dense
-    x = lanes[X * LANES + i] + h * theta * (cx1 + theta * (cx2 + theta * (cx3 + theta * cx4)))
+    of size h from lane i's state."""
+    x = lanes[X * LANES + i] + dense_point(dense, h, theta, 0)
     if kind == EV_EXIT_HI:
         return settings[SET_XHI] - x
     if kind == EV_EXIT_LO:
         return x - settings[SET_XLO]
-    v = lanes[V * LANES + i] + h * theta * (cv1 + theta * (cv2 + theta * (cv3 + theta * cv4)))
+    v = lanes[V * LANES + i] + dense_point(dense, h, theta, 4)
     if kind == EV_REVERSAL:
         return lanes[D * LANES + i] * v
     _, fpp = ramp_slope_curvature(x, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
@@ -272,8 +278,9 @@ def _locate_dense(kind, lanes, i, dense, h, value_end, settings, shared):
 
 def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
     """Handle lane i's frozen step: locate the earliest event inside it on the
-    dense output, step to it and apply it.  Returns True if the trajectory goes
-    on, False if it finished."""
+    step's dense output, move the lane there (x, v and the work integrals from
+    the dense output: no further step) and apply the event.  Returns True if
+    the trajectory goes on, False if it finished."""
     t_now = lanes[T * LANES + i]
     t_max = settings[SET_TMAX]
     lanes[PENDING * LANES + i] = 0.0
@@ -285,29 +292,34 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
     h_end = min(h, t_max - t_now)
-    x1, v1, _, _, _, _, fpp1, _, _, _, _ = trial_step(lanes, i, h_end, shared)
+    dense, x1, v1, fpp1, err_work = dense_output(
+        lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i],
+        lanes[FPP * LANES + i], lanes[A1 * LANES + i], lanes[Q * LANES + i],
+        lanes[D * LANES + i], h_end, lanes[G * LANES + i], lanes[P0 * LANES + i],
+        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
     contact = (lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
                if CHECK_CONTACT else 1.0)
     values = (x1 - settings[SET_XLO], settings[SET_XHI] - x1, contact, lanes[D * LANES + i] * v1)
     best_kind = EV_NONE
     best_theta = 1.0
-    if not (values[0] > 0.0 and values[1] > 0.0 and values[2] > 0.0 and values[3] > 0.0):
-        dense = dense_output(
-            lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i],
-            lanes[FPP * LANES + i], lanes[A1 * LANES + i], lanes[Q * LANES + i],
-            lanes[D * LANES + i], h_end, lanes[G * LANES + i], lanes[P0 * LANES + i],
-            lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
-        for k in range(4):
-            if not values[k] > 0.0:
-                kind = np.int64(EV_EXIT_LO + k)  # one argument type: one compilation
-                theta = locate_dense(kind, lanes, i, dense, h_end, values[k], settings, shared)
-                if best_kind == EV_NONE or theta < best_theta:
-                    best_theta = theta
-                    best_kind = kind
+    for k in range(4):
+        if not values[k] > 0.0:
+            kind = np.int64(EV_EXIT_LO + k)  # one argument type: one compilation
+            theta = locate_dense(kind, lanes, i, dense, h_end, values[k], settings, shared)
+            if best_kind == EV_NONE or theta < best_theta:
+                best_theta = theta
+                best_kind = kind
     if best_kind == EV_NONE:
-        if t_now + h >= t_max:  # the step reaches t_max with nothing before
-            return apply_event(lanes, i, np.int64(EV_TIMEOUT), t_max - t_now, t_now,
-                               settings, outputs, shared)
-        return True  # nothing here any more (cannot happen: the frozen step is recomputed)
-    h_event = h_end if best_theta >= 1.0 else best_theta * h_end
-    return apply_event(lanes, i, best_kind, h_event, t_now, settings, outputs, shared)
+        if t_now + h < t_max:
+            return True  # nothing here (cannot happen: the frozen step is recomputed)
+        best_kind = np.int64(EV_TIMEOUT)  # the step reaches t_max with nothing before
+    if best_theta > 0.0:
+        lanes[X * LANES + i] += dense_point(dense, h_end, best_theta, 0)
+        lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 4)
+        lanes[W * LANES + i] += dense_point(dense, h_end, best_theta, 8)
+        lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 12)
+        lanes[STEPS * LANES + i] += 1.0
+        lanes[EEST * LANES + i] += abs(err_work)  # the whole step's: an upper bound
+    t_event = t_now + best_theta * h_end
+    lanes[T * LANES + i] = t_event
+    return apply_event(lanes, i, best_kind, 0.0, t_event, settings, outputs, shared)

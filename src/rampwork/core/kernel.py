@@ -47,7 +47,7 @@ SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
- trial_step, apply_event, start_adaptive) = (None,) * 22
+ trial_step, apply_event, start_adaptive, new_lanes) = (None,) * 23
 
 
 # ------------------------------------------------------------------------------
@@ -281,6 +281,15 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     make_empty(lanes, i)
 
 
+def _new_lanes():
+    """A block of LANES empty lanes and its tile scratch (nothing cached)."""
+    lanes = np.zeros(N_FIELDS * LANES + N_SCRATCH)
+    for i in range(LANES):
+        make_empty(lanes, i)
+    lanes[N_FIELDS * LANES:] = np.nan
+    return lanes
+
+
 def _make_empty(lanes, i):
     """Mark lane i empty: D = 0 fails d * v1 > 0, so it never steps."""
     lanes[TRAJ * LANES + i] = -1.0
@@ -340,13 +349,24 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     rebase(lanes, i, 0.0, settings)
     lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
     # divergence bound: the speed can never exceed what the energy allows
-    f_min = f
-    f_max = f
-    spacing = (x_hi - x_lo) / (N_RANGE_SAMPLES - 1)
-    for k in range(N_RANGE_SAMPLES):
-        fs = ramp_height(x_lo + spacing * k, p0, p1, p2, p3, shared)
-        f_min = min(f_min, fs)
-        f_max = max(f_max, fs)
+    scratch = N_FIELDS * LANES
+    if not (lanes[scratch + RANGE_P0] == p0 and lanes[scratch + RANGE_P1] == p1
+            and lanes[scratch + RANGE_P2] == p2 and lanes[scratch + RANGE_P3] == p3):
+        f_low = math.inf
+        f_high = -math.inf
+        spacing = (x_hi - x_lo) / (N_RANGE_SAMPLES - 1)
+        for k in range(N_RANGE_SAMPLES):
+            fs = ramp_height(x_lo + spacing * k, p0, p1, p2, p3, shared)
+            f_low = min(f_low, fs)
+            f_high = max(f_high, fs)
+        lanes[scratch + RANGE_P0] = p0
+        lanes[scratch + RANGE_P1] = p1
+        lanes[scratch + RANGE_P2] = p2
+        lanes[scratch + RANGE_P3] = p3
+        lanes[scratch + RANGE_FMIN] = f_low
+        lanes[scratch + RANGE_FMAX] = f_high
+    f_min = min(f, lanes[scratch + RANGE_FMIN])
+    f_max = max(f, lanes[scratch + RANGE_FMAX])
     energy_scale = 0.5 * v * v * (1.0 + fp * fp) + g * (f_max - f_min)
     lanes[VLIM2 * LANES + i] = SPEED_BOUND_FACTOR ** 2 * 2.0 * energy_scale + 1e-12
     lanes[ELIM * LANES + i] = lanes[E0 * LANES + i] + ENERGY_RISE_FACTOR * energy_scale + 1e-12
@@ -549,9 +569,7 @@ def _active_span(running):
 
 def _run_tile(start, stop, inputs, settings, outputs, shared):
     """Run trajectories start..stop-1 through one block of LANES lanes."""
-    lanes = np.zeros(N_FIELDS * LANES)
-    for i in range(LANES):
-        make_empty(lanes, i)
+    lanes = new_lanes()
     next_j = start
     for i in range(LANES):
         next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
@@ -585,9 +603,7 @@ def _trace_one(j, inputs, settings, shared, every, trace):
     every ``every`` steps and at every event, into ``trace`` (4, max_samples).
     Returns the number of samples written."""
     outputs = np.zeros((N_OUTPUTS, inputs.shape[1]))
-    lanes = np.zeros(N_FIELDS * LANES)
-    for i in range(LANES):
-        make_empty(lanes, i)
+    lanes = new_lanes()
     max_samples = trace.shape[1]
     h = settings[SET_DT]
     count = 0
@@ -632,7 +648,7 @@ def _no_adaptive_start(lanes, i, settings, shared):
 
 def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
                  one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
-                 lanes: int = 64, cache: bool = True):
+                 lanes: int = 64, substeps: int | None = None, cache: bool = True):
     """Compile (or load from numba's on-disk cache) the kernels for one scene.
 
     ``method`` is a fixed-step method of ``steppers.STEPPERS`` or an adaptive
@@ -642,13 +658,17 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     families).  Returns ``(run_batch, trace_one)``:
     ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
     ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n) in parallel;
+    ``lanes`` and ``substeps`` (steps between scalar passes) are tuning knobs
+    that do not change results;
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
     adaptive = method in ADAPTIVE_STEPPERS
     carry_slope = carry_slope or adaptive
     flags = (("one" if one_sided else "two") + ("_contact" if check_contact else "")
              + ("_carry" if carry_slope else ""))
-    variant = f"{name}_{method}_{flags}_{lanes}"
+    if substeps is None:
+        substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
+    variant = f"{name}_{method}_{flags}_{lanes}_{substeps}"
     constants = {
         "ramp_height": ramp_height_fn,
         "ramp_slope_curvature": ramp_slope_curvature_fn,
@@ -657,7 +677,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "CARRY_SLOPE": carry_slope,
         "LANES": lanes,
         "ADAPTIVE": adaptive,
-        "SUBSTEPS": N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS,
+        "SUBSTEPS": substeps,
     }
 
     def add(key, function, **options):
@@ -672,12 +692,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
 
     if adaptive:
         step_template, _order, dense_template = ADAPTIVE_STEPPERS[method]
-        # LLVM's inliner refuses functions this large, and a call in the lane
-        # loop stops it vectorising: inline them in numba's IR instead
-        inline = {**no_refcount, "inline": "always"}
-        add("_stage", steppers._stage, **inline)
-        add("_dopri5_stages", steppers._dopri5_stages, **inline)
-        add("step", step_template, **inline)
+        add("_stage", steppers._stage, **no_refcount)
+        add("_dopri5_stages", steppers._dopri5_stages, **no_refcount)
+        add("step", step_template, **no_refcount)
         add("dense_output", dense_template, **no_refcount)
         method_parts = (
             ("error_norm2", adaptive_parts._error_norm2),
@@ -685,6 +702,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("trial_step", adaptive_parts._trial_step_adaptive),
             ("apply_step", adaptive_parts._apply_step_adaptive),
             ("start_adaptive", adaptive_parts._start_adaptive),
+            ("dense_point", adaptive_parts._dense_point),
             ("dense_value", adaptive_parts._dense_value),
             ("locate_dense", adaptive_parts._locate_dense),
         )
@@ -698,6 +716,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         )
     for key, function in method_parts + (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
+        ("new_lanes", _new_lanes),
         ("set_mode", _set_mode), ("refresh_slope", _refresh_slope),
         ("finish_lane", _finish_lane), ("apply_event", _apply_event),
         ("load_lane", _load_lane),
@@ -708,7 +727,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         ("scan_lanes", _scan_lanes), ("compact_lanes", _compact_lanes),
         ("active_span", _active_span), ("run_tile", _run_tile),
     ):
-        options = {} if key == "run_tile" else dict(no_refcount)
+        options = {} if key in ("run_tile", "new_lanes") else dict(no_refcount)
         add(key, function, **options)
     run_batch = add("run_batch", _run_batch, parallel=True)
     trace_one = add("trace_one", _trace_one)

@@ -18,6 +18,11 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
  STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
  H, LERR, REJ, NREJ, A1, EEST, PENDING) = range(37)
 N_FIELDS = 37
+# After the lanes, a tile's scratch: the height range of the ramp parameters
+# last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
+# ramp does not change samples it once per tile, not once per trajectory.
+RANGE_P0, RANGE_P1, RANGE_P2, RANGE_P3, RANGE_FMIN, RANGE_FMAX = range(6)
+N_SCRATCH = 6
 
 # --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
 IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)

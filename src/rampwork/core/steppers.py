@@ -119,20 +119,20 @@ def _dopri5_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared):
     x2 = fma(h * A21, v, x)
     v2 = fma(h * A21, a1, v)
     _, _, _, a2 = _stage(x2, v2, q, g, p0, p1, p2, p3, shared)
-    x3 = x + h * (A31 * v + A32 * v2)
-    v3 = v + h * (A31 * a1 + A32 * a2)
+    x3 = fma(h, fma(A32, v2, A31 * v), x)
+    v3 = fma(h, fma(A32, a2, A31 * a1), v)
     _, fpp3, n3, a3 = _stage(x3, v3, q, g, p0, p1, p2, p3, shared)
-    x4 = x + h * (A41 * v + A42 * v2 + A43 * v3)
-    v4 = v + h * (A41 * a1 + A42 * a2 + A43 * a3)
+    x4 = fma(h, fma(A43, v3, fma(A42, v2, A41 * v)), x)
+    v4 = fma(h, fma(A43, a3, fma(A42, a2, A41 * a1)), v)
     _, fpp4, n4, a4 = _stage(x4, v4, q, g, p0, p1, p2, p3, shared)
-    x5 = x + h * (A51 * v + A52 * v2 + A53 * v3 + A54 * v4)
-    v5 = v + h * (A51 * a1 + A52 * a2 + A53 * a3 + A54 * a4)
+    x5 = fma(h, fma(A54, v4, fma(A53, v3, fma(A52, v2, A51 * v))), x)
+    v5 = fma(h, fma(A54, a4, fma(A53, a3, fma(A52, a2, A51 * a1))), v)
     _, fpp5, n5, a5 = _stage(x5, v5, q, g, p0, p1, p2, p3, shared)
-    x6 = x + h * (A61 * v + A62 * v2 + A63 * v3 + A64 * v4 + A65 * v5)
-    v6 = v + h * (A61 * a1 + A62 * a2 + A63 * a3 + A64 * a4 + A65 * a5)
+    x6 = fma(h, fma(A65, v5, fma(A64, v4, fma(A63, v3, fma(A62, v2, A61 * v)))), x)
+    v6 = fma(h, fma(A65, a5, fma(A64, a4, fma(A63, a3, fma(A62, a2, A61 * a1)))), v)
     _, fpp6, n6, a6 = _stage(x6, v6, q, g, p0, p1, p2, p3, shared)
-    x7 = x + h * (B1 * v + B3 * v3 + B4 * v4 + B5 * v5 + B6 * v6)
-    v7 = v + h * (B1 * a1 + B3 * a3 + B4 * a4 + B5 * a5 + B6 * a6)
+    x7 = fma(h, fma(B6, v6, fma(B5, v5, fma(B4, v4, fma(B3, v3, B1 * v)))), x)
+    v7 = fma(h, fma(B6, a6, fma(B5, a5, fma(B4, a4, fma(B3, a3, B1 * a1)))), v)
     fp7, fpp7, n7, a7 = _stage(x7, v7, q, g, p0, p1, p2, p3, shared)
     return (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
             fpp3, fpp4, fpp5, fpp6, fpp7, fp7)
@@ -155,31 +155,59 @@ def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     k1, k3, k4, k5, k6, k7 = fpp * v, fpp3 * v3, fpp4 * v4, fpp5 * v5, fpp6 * v6, fpp7 * v7
     qh = q * h
     dh = d * h
-    work = qh * (B1 * w1 + B3 * w3 + B4 * w4 + B5 * w5 + B6 * w6)
-    curvature = dh * (B1 * k1 + B3 * k3 + B4 * k4 + B5 * k5 + B6 * k6)
-    err_x = h * (E1 * v + E3 * v3 + E4 * v4 + E5 * v5 + E6 * v6 + E7 * v7)
-    err_v = h * (E1 * a1 + E3 * a3 + E4 * a4 + E5 * a5 + E6 * a6 + E7 * a7)
-    err_work = qh * (E1 * w1 + E3 * w3 + E4 * w4 + E5 * w5 + E6 * w6 + E7 * w7)
-    err_curvature = dh * (E1 * k1 + E3 * k3 + E4 * k4 + E5 * k5 + E6 * k6 + E7 * k7)
+    work = qh * _weigh5(w1, w3, w4, w5, w6)
+    curvature = dh * _weigh5(k1, k3, k4, k5, k6)
+    err_x = h * _error6(v, v3, v4, v5, v6, v7)
+    err_v = h * _error6(a1, a3, a4, a5, a6, a7)
+    err_work = qh * _error6(w1, w3, w4, w5, w6, w7)
+    err_curvature = dh * _error6(k1, k3, k4, k5, k6, k7)
     return (x7, v7, work, curvature, a7, fp7, fpp7, err_x, err_v, err_work, err_curvature)
 
 
 def dopri5_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
-    """Coefficients of the step's dense output: x(theta) = x + h sum_j cx_j
-    theta^j and v(theta) = v + h sum_j cv_j theta^j, j = 1..4 (4th order, exact
-    at both ends), as ``(cx1, cx2, cx3, cx4, cv1, cv2, cv3, cv4)``."""
-    (_, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, _, _, _, _, _, _,
-     _, _, _, _, _, _) = _dopri5_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared)
-    return (_dense_row(0, v, v3, v4, v5, v6, v7), _dense_row(1, v, v3, v4, v5, v6, v7),
-            _dense_row(2, v, v3, v4, v5, v6, v7), _dense_row(3, v, v3, v4, v5, v6, v7),
-            _dense_row(0, a1, a3, a4, a5, a6, a7), _dense_row(1, a1, a3, a4, a5, a6, a7),
-            _dense_row(2, a1, a3, a4, a5, a6, a7), _dense_row(3, a1, a3, a4, a5, a6, a7))
+    """The step's dense output and end point, for events.  Returns
+
+        (dense, x_new, v_new, fpp_new, err_work)
+
+    ``dense`` holds the coefficients c_j (j = 1..4) of y(theta) = y0 + h sum_j
+    c_j theta^j for x, v, the friction work and the curvature integral, in
+    that order (16 numbers; 4th order, exact at both ends)."""
+    (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
+     fpp3, fpp4, fpp5, fpp6, fpp7, _) = _dopri5_stages(x, v, fpp, a1, q, h, g,
+                                                        p0, p1, p2, p3, shared)
+    w1, w3, w4, w5, w6, w7 = q * n1 * v, q * n3 * v3, q * n4 * v4, q * n5 * v5, q * n6 * v6, q * n7 * v7
+    k1, k3, k4, k5, k6, k7 = (d * fpp * v, d * fpp3 * v3, d * fpp4 * v4, d * fpp5 * v5,
+                              d * fpp6 * v6, d * fpp7 * v7)
+    dense = (_dense_row(0, v, v3, v4, v5, v6, v7), _dense_row(1, v, v3, v4, v5, v6, v7),
+             _dense_row(2, v, v3, v4, v5, v6, v7), _dense_row(3, v, v3, v4, v5, v6, v7),
+             _dense_row(0, a1, a3, a4, a5, a6, a7), _dense_row(1, a1, a3, a4, a5, a6, a7),
+             _dense_row(2, a1, a3, a4, a5, a6, a7), _dense_row(3, a1, a3, a4, a5, a6, a7),
+             _dense_row(0, w1, w3, w4, w5, w6, w7), _dense_row(1, w1, w3, w4, w5, w6, w7),
+             _dense_row(2, w1, w3, w4, w5, w6, w7), _dense_row(3, w1, w3, w4, w5, w6, w7),
+             _dense_row(0, k1, k3, k4, k5, k6, k7), _dense_row(1, k1, k3, k4, k5, k6, k7),
+             _dense_row(2, k1, k3, k4, k5, k6, k7), _dense_row(3, k1, k3, k4, k5, k6, k7))
+    err_work = h * _error6(w1, w3, w4, w5, w6, w7)
+    return dense, x7, v7, fpp7, err_work
 
 
 @jit
 def _dense_row(j, k1, k3, k4, k5, k6, k7):
     """sum_s k_s P[s][j] over the stages that enter the dense output."""
-    return P1[j] * k1 + P3[j] * k3 + P4[j] * k4 + P5[j] * k5 + P6[j] * k6 + P7[j] * k7
+    return fma(P7[j], k7, fma(P6[j], k6, fma(P5[j], k5, fma(P4[j], k4, fma(P3[j], k3, P1[j] * k1)))))
+
+
+# Weighted sums of stage values as chains of fused multiply-adds (fewer
+# operations and roundings than products and sums; no fast-math needed).
+@jit
+def _weigh5(k1, k3, k4, k5, k6):
+    """sum_s B_s k_s: the 5th-order solution's quadrature."""
+    return fma(B6, k6, fma(B5, k5, fma(B4, k4, fma(B3, k3, B1 * k1))))
+
+
+@jit
+def _error6(k1, k3, k4, k5, k6, k7):
+    """sum_s E_s k_s: the embedded error estimate."""
+    return fma(E7, k7, fma(E6, k6, fma(E5, k5, fma(E4, k4, fma(E3, k3, E1 * k1)))))
 
 
 #: adaptive method name -> (step template, order, dense-output template)
