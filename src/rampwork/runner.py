@@ -235,8 +235,9 @@ def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:
 
 
 def _masses(plan: RunPlan, start: int, stop: int) -> np.ndarray:
-    values = axis_values(plan, start, stop)
-    return values["m"] if "m" in values else np.full(stop - start, plan.scene.m)
+    if "m" not in plan.sweep.names:
+        return np.full(stop - start, plan.scene.m)
+    return axis_values(plan, start, stop)["m"]
 
 
 # ------------------------------------------------------------------------------

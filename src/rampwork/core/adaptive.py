@@ -35,6 +35,7 @@ from .physics import acceleration, normal_term
 step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 LANES = 64
+CHAINS = 2
 (error_norm2, trial_step, apply_step, apply_event, rebase, finish_lane, dense_value,
  locate_dense, attempt, dense_point) = (None,) * 10
 
@@ -84,7 +85,7 @@ def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
     atol = settings[SET_ATOL]
     h_max = settings[SET_HMAX]
     h_min = settings[SET_HMIN]
-    if n_active > LANES // 2:
+    if CHAINS == 2 and n_active > LANES // 2:
         for _ in range(n_attempts):
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
                 attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min)

@@ -44,10 +44,11 @@ CARRY_SLOPE = True  # keep f', f'' from the previous step end rather than re-eva
 LANES = 64  # lanes per block
 ADAPTIVE = False  # an embedded pair with per-lane step sizes (adaptive.py)
 SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
+CHAINS = 2  # lane-loop halves run side by side (1: one after the other)
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
- trial_step, apply_event, start_adaptive, new_lanes) = (None,) * 23
+ trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane) = (None,) * 24
 
 
 # ------------------------------------------------------------------------------
@@ -56,49 +57,62 @@ SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
 def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
     """``n_substeps`` fixed steps on lanes 0 .. n_active-1.
 
-    Branch-free per lane so that it vectorises: the new state is committed only
-    where no event condition fired (a select, not a branch).  A lane whose step
-    raised an event keeps its step-start state, so it recomputes the same step
-    and stays frozen until the scalar pass resolves it; an empty lane has
-    D = 0 and never passes.  NaN makes every comparison false, so a non-finite
-    step freezes too.  Lane fields sit at compile-time-constant offsets
-    ``FIELD * LANES``, which lets the compiler prove that they do not overlap.
+    Branch-free per lane so that it vectorises (see :func:`_fixed_step_lane`).
+    Lane fields sit at compile-time-constant offsets ``FIELD * LANES``, which
+    lets the compiler prove that they do not overlap.  With ``CHAINS = 2`` a
+    full block runs its two halves side by side: each lane's step is a chain
+    of dependent divisions (four for RK4), and two independent chains keep
+    the divider busy where one would wait on latency.
     """
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
-    for _ in range(n_substeps):
-        for i in range(n_active):
-            x = lanes[X * LANES + i]
-            v = lanes[V * LANES + i]
-            d = lanes[D * LANES + i]
-            g = lanes[G * LANES + i]
-            p0 = lanes[P0 * LANES + i]
-            p1 = lanes[P1 * LANES + i]
-            p2 = lanes[P2 * LANES + i]
-            p3 = lanes[P3 * LANES + i]
-            steps = lanes[STEPS * LANES + i]
-            if CARRY_SLOPE:
-                fp = lanes[FP * LANES + i]
-                fpp = lanes[FPP * LANES + i]
-            else:
-                fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-            x1, v1, dw, dk = step(x, v, fp, fpp, lanes[Q * LANES + i], d, h, g,
-                                         p0, p1, p2, p3, shared)
-            ok = ((d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
-                  & (steps < lanes[LIMIT * LANES + i]))
-            if CHECK_CONTACT or CARRY_SLOPE:
-                fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
-            if CHECK_CONTACT:
-                ok = ok & (lanes[SN * LANES + i] * normal_term(v1, fpp1, g) > 0.0)
-            lanes[X * LANES + i] = x1 if ok else x
-            lanes[V * LANES + i] = v1 if ok else v
-            lanes[W * LANES + i] += dw if ok else 0.0
-            lanes[K * LANES + i] += dk if ok else 0.0
-            lanes[STEPS * LANES + i] = steps + 1.0 if ok else steps
-            if CARRY_SLOPE:
-                lanes[FP * LANES + i] = fp1 if ok else fp
-                lanes[FPP * LANES + i] = fpp1 if ok else fpp
+    if CHAINS == 2 and n_active > LANES // 2:
+        for _ in range(n_substeps):
+            for i in range(LANES // 2):  # constant offsets: provably disjoint halves
+                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h)
+                fixed_step_lane(lanes, i + LANES // 2, shared, x_lo, x_hi, h)
+    else:
+        for _ in range(n_substeps):
+            for i in range(n_active):
+                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h)
+
+
+def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
+    """One fixed step on lane i, committed only where no event condition fired
+    (a select, not a branch).  A lane whose step raised an event keeps its
+    step-start state, so it recomputes the same step and stays frozen until
+    the scalar pass resolves it; an empty lane has D = 0 and never passes.
+    NaN makes every comparison false, so a non-finite step freezes too."""
+    x = lanes[X * LANES + i]
+    v = lanes[V * LANES + i]
+    d = lanes[D * LANES + i]
+    g = lanes[G * LANES + i]
+    p0 = lanes[P0 * LANES + i]
+    p1 = lanes[P1 * LANES + i]
+    p2 = lanes[P2 * LANES + i]
+    p3 = lanes[P3 * LANES + i]
+    steps = lanes[STEPS * LANES + i]
+    if CARRY_SLOPE:
+        fp = lanes[FP * LANES + i]
+        fpp = lanes[FPP * LANES + i]
+    else:
+        fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    x1, v1, dw, dk = step(x, v, fp, fpp, lanes[Q * LANES + i], d, h, g, p0, p1, p2, p3, shared)
+    ok = ((d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
+          & (steps < lanes[LIMIT * LANES + i]))
+    if CHECK_CONTACT or CARRY_SLOPE:
+        fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+    if CHECK_CONTACT:
+        ok = ok & (lanes[SN * LANES + i] * normal_term(v1, fpp1, g) > 0.0)
+    lanes[X * LANES + i] = x1 if ok else x
+    lanes[V * LANES + i] = v1 if ok else v
+    lanes[W * LANES + i] += dw if ok else 0.0
+    lanes[K * LANES + i] += dk if ok else 0.0
+    lanes[STEPS * LANES + i] = steps + 1.0 if ok else steps
+    if CARRY_SLOPE:
+        lanes[FP * LANES + i] = fp1 if ok else fp
+        lanes[FPP * LANES + i] = fpp1 if ok else fpp
 
 
 # ------------------------------------------------------------------------------
@@ -648,7 +662,8 @@ def _no_adaptive_start(lanes, i, settings, shared):
 
 def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
                  one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
-                 lanes: int = 64, substeps: int | None = None, cache: bool = True):
+                 lanes: int = 64, substeps: int | None = None, chains: int = 2,
+                 cache: bool = True):
     """Compile (or load from numba's on-disk cache) the kernels for one scene.
 
     ``method`` is a fixed-step method of ``steppers.STEPPERS`` or an adaptive
@@ -658,7 +673,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     families).  Returns ``(run_batch, trace_one)``:
     ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
     ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n) in parallel;
-    ``lanes`` and ``substeps`` (steps between scalar passes) are tuning knobs
+    ``lanes``, ``substeps`` (steps between scalar passes) and ``chains`` (1 or
+    2 lane-loop halves side by side) are tuning knobs
     that do not change results;
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
@@ -668,7 +684,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
              + ("_carry" if carry_slope else ""))
     if substeps is None:
         substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
-    variant = f"{name}_{method}_{flags}_{lanes}_{substeps}"
+    variant = f"{name}_{method}_{flags}_{lanes}_{substeps}_{chains}"
     constants = {
         "ramp_height": ramp_height_fn,
         "ramp_slope_curvature": ramp_slope_curvature_fn,
@@ -678,6 +694,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "LANES": lanes,
         "ADAPTIVE": adaptive,
         "SUBSTEPS": substeps,
+        "CHAINS": chains,
     }
 
     def add(key, function, **options):
@@ -713,6 +730,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("event_values", _event_values), ("event_value", _event_value),
             ("locate_event", _locate_event), ("apply_step", _apply_step),
             ("start_adaptive", _no_adaptive_start),
+            ("fixed_step_lane", _fixed_step_lane),
         )
     for key, function in method_parts + (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
