@@ -78,13 +78,15 @@ def quad_bowl_references(reference):
     """Reference runs of the quadratic bowl for each mu in QUAD_MUS, each
     checked for an event sequence worth fitting orders on: at least one
     reversal, a final stick, and every rest decision far from its threshold.
-    Also returns how far the reference itself is from converged (its change
-    from rtol 1e-12 to 1e-13), which every fitted error must dwarf."""
+    The reference runs at scipy's tightest tolerance (rtol >= 100 eps); with
+    them comes how far the reference is from converged (its change from rtol
+    1e-13, an upper estimate of its own error: 2e-14 to 6e-13 here), which
+    every fitted error must exceed tenfold."""
     refs, wobble = [], []
     for mu in QUAD_MUS:
         scene = quad_bowl_scene(rw.Integrator("rk4", 1e-3))
-        ref = reference.reference_trajectory(scene, mu_k=mu, mu_s=mu, rtol=1e-13, atol=1e-13)
-        coarser = reference.reference_trajectory(scene, mu_k=mu, mu_s=mu, rtol=1e-12, atol=1e-12)
+        ref = reference.reference_trajectory(scene, mu_k=mu, mu_s=mu, rtol=3e-14, atol=3e-14)
+        coarser = reference.reference_trajectory(scene, mu_k=mu, mu_s=mu, rtol=1e-13, atol=1e-13)
         assert ref["status"] == STUCK and ref["n_reversals"] >= 1, ref["events"]
         assert min(abs(e["margin"]) for e in ref["events"] if "margin" in e) > 0.01
         refs.append(ref)
@@ -98,7 +100,7 @@ def quad_bowl_references(reference):
 @pytest.mark.parametrize("method, order, dts", [
     ("euler", 1, [4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4]),
     ("semi_implicit_euler", 1, [4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4]),
-    ("rk4", 4, [1e-2, 5e-3, 2.5e-3, 1.25e-3]),
+    ("rk4", 4, [8e-3, 4e-3, 2e-3]),  # beyond: errors near the reference's own
 ])
 def test_fixed_step_order_through_reversals_and_a_stick(method, order, dts, quad_bowl_references):
     """Fitted log-log slope of the error against dt, within 0.3 of the
@@ -126,7 +128,7 @@ def test_fixed_step_order_through_reversals_and_a_stick(method, order, dts, quad
         e = np.array(e)
         n_steps = refs[k]["t_end"] / min(dts)
         rounding = 10 * math.sqrt(n_steps) * EPS * si_scale(refs[k][q])
-        assert e.min() > max(rounding, 100 * wobble[k][q]), (q, k, e, rounding, wobble[k][q])
+        assert e.min() > max(rounding, 10 * wobble[k][q]), (q, k, e, rounding, wobble[k][q])
         local = np.log(e[:-1] / e[1:]) / np.log(dts[0] / dts[1])
         fitted = _slope(dts, e)
         where = (method, QUAD_MUS[k], q, e, local)
@@ -159,7 +161,7 @@ def test_dopri5_error_is_proportional_to_rtol(quad_bowl_references):
                 assert error <= 10 * rtol * si_scale(ref[q]), (rtol, QUAD_MUS[k], q, error)
                 errors[k, q].append(error)
     for (k, q), e in errors.items():
-        assert min(e) > 100 * wobble[k][q], (q, k, e, wobble[k][q])
+        assert min(e) > 10 * wobble[k][q], (q, k, e, wobble[k][q])
         fitted = _slope(rtols, e)
         assert abs(fitted - 1.0) <= 0.3, (QUAD_MUS[k], q, fitted, e)
     steps = np.array(steps)
@@ -183,6 +185,14 @@ RANDOM_RTOLS = (1e-4, 1e-6, 1e-8, 1e-10)
 #: grows with its length (scipy's own Dormand-Prince, RK45, reaches 30x rtol
 #: on a 10 s, 15-reversal run where rampwork reaches 25x)
 T_MAX_RANDOM = 2.0
+#: at and above this tolerance steps are 0.1-0.3 s long on these metre-scale
+#: ramps and the embedded error estimate is not yet asymptotic: single errors
+#: reach a few tens of rtol there for any implementation of the pair (on
+#: hypothesis-found 2 s runs with two reversals, scipy's RK45 is 99x rtol off
+#: in x_end and 29x in W where rampwork is 65x and 11x).  There each error is
+#: held to 100x rtol kappa and the batch median to 10x; below it, every error
+#: to 10x.
+LOOSE_RTOL = 1e-4
 #: relative size of the start / friction perturbations used to measure how
 #: sensitive a reference trajectory is (its condition number)
 SENSITIVITY_STEP = 1e-6
@@ -191,13 +201,24 @@ SENSITIVITY_STEP = 1e-6
 KNIFE_EDGE = 100.0
 
 
+def _zero_or(low, high, signed=False):
+    """0 exactly, or a magnitude in [low, high] (with either sign): not the
+    tiny nonzero values hypothesis likes, which make knife edges by
+    construction (a start at v0 = -1e-100 uphill is one reversal away from
+    a start at rest)."""
+    magnitude = st.floats(low, high)
+    if signed:
+        magnitude = st.tuples(st.sampled_from((-1.0, 1.0)), magnitude).map(lambda p: p[0] * p[1])
+    return st.one_of(st.just(0.0), magnitude)
+
+
 def case_strategy(family):
     (lo, hi), params = FAMILY_SPACE[family]
     return st.fixed_dictionaries({
         "x0": st.floats(0.95 * lo, 0.95 * hi),
-        "v0": st.floats(-2.0, 2.0),
-        "mu_k": st.floats(0.0, 0.4),
-        "static_extra": st.one_of(st.just(0.0), st.floats(0.0, 0.2)),  # mu_s - mu_k
+        "v0": _zero_or(0.05, 2.0, signed=True),
+        "mu_k": _zero_or(0.01, 0.4),
+        "static_extra": _zero_or(0.01, 0.2),  # mu_s - mu_k
         **{name: st.floats(a, b) for name, (a, b) in params.items()},
     })
 
@@ -225,7 +246,8 @@ def _perturbed(overrides, step, domain):
     x0, v0, mu_k, mu_s = (overrides[k] for k in ("x0", "v0", "mu_k", "mu_s"))
     for sign in (1.0, -1.0):
         yield dict(overrides, x0=min(max(x0 + sign * step * si_scale(x0), lo), hi))
-        yield dict(overrides, v0=v0 + sign * step * si_scale(v0))
+        if v0 != 0.0:  # a start at rest stays one: nudged uphill it would add a reversal
+            yield dict(overrides, v0=v0 + sign * step * si_scale(v0))
         if mu_k > 0.0:
             yield dict(overrides, mu_k=mu_k * (1 + sign * step), mu_s=mu_s * (1 + sign * step))
 
@@ -293,7 +315,7 @@ def check_random_batch(family, cases, reference):
     columns["mu_s"] = [case["mu_k"] + case["static_extra"] for case in cases]
     results = {rtol: run(scene.replace(integrator=dopri5(rtol)), rw.Sweep.cases(**columns))
                for rtol in RANDOM_RTOLS}
-    failures, skipped = [], []
+    failures, skipped, ratios = [], [], {}
     for i, case in enumerate(cases):
         overrides = _case_overrides(family, case)
         ref = reference.reference_trajectory(scene, **overrides, rtol=1e-13, atol=1e-13)
@@ -324,10 +346,14 @@ def check_random_batch(family, cases, reference):
                 continue
             for q in QUANTITIES:
                 error = abs(val(got, q) - ref[q])
-                bound = 10 * rtol * si_scale(ref[q]) * kappa[q]
-                if not error <= bound:
-                    failures.append((rtol, where, f"{q} off by {error:.3g} = {error / bound * 10:.1f}x "
-                                     f"rtol kappa (kappa {kappa[q]:.3g}), reference {ref[q]!r}"))
+                ratio = error / (rtol * si_scale(ref[q]) * kappa[q])
+                ratios.setdefault(rtol, []).append(ratio)
+                if not ratio <= (100.0 if rtol >= LOOSE_RTOL else 10.0):
+                    failures.append((rtol, where, f"{q} off by {error:.3g} = {ratio:.1f}x rtol kappa "
+                                     f"(kappa {kappa[q]:.3g}), reference {ref[q]!r}"))
+    for rtol, values in ratios.items():
+        if rtol >= LOOSE_RTOL and not np.median(values) <= 10.0:
+            failures.append((rtol, family, f"median error {np.median(values):.1f}x rtol kappa"))
     note(f"skipped: {skipped}")
     for item in skipped:
         hypothesis.event(f"{family}: skipped ({item[-1].split(' at ')[0]})")
@@ -398,7 +424,7 @@ def test_exit_times_to_the_tolerance(reference):
     straight = rw.Scene(ramp=ramp, friction=rw.Friction(mu), x0=0.0)
     launched = rw.Scene(ramp=BOWL, friction=rw.Friction(0.1), x0=-0.5, v0=4.0)
     ref = reference.reference_trajectory(launched, rtol=1e-13, atol=1e-13)
-    assert ref["status"] == EXITED and ref["n_reversals"] == 0 and ref["v_end"] > 1.0
+    assert ref["status"] == EXITED and ref["n_reversals"] == 0 and ref["v_end"] > 0.5  # no graze
     for rtol in EVENT_RTOLS:
         ds = run(straight.replace(integrator=dopri5(rtol)), rw.Sweep.cases(x0=x0s, v0=v0s))
         assert np.all(ds.status.values == EXITED) and np.all(ds.x_end.values == hi)

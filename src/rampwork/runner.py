@@ -296,9 +296,8 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     shared = scene.ramp.shared_array()
     compile_seconds = build_seconds + _warm_up(run_batch, plan, settings)
 
-    results = {name: np.empty(plan.size, dtype=spec.np_dtype)
-               for name, spec in schema.OUTPUTS.items()
-               if scene.integrator.adaptive or name not in schema.ADAPTIVE_OUTPUTS}
+    results = {name: np.empty(plan.size, dtype=schema.OUTPUTS[name].np_dtype)
+               for name in schema.output_names(scene.integrator.adaptive)}
     previous_threads = numba.get_num_threads()
     numba.set_num_threads(threads)
     started = time.perf_counter()

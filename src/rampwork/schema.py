@@ -25,6 +25,7 @@ __all__ = [
     "VariableSpec",
     "OUTPUTS",
     "ADAPTIVE_OUTPUTS",
+    "output_names",
     "AXES",
     "TRAJECTORY_RECORD",
     "TRACE_DIMS",
@@ -190,6 +191,11 @@ _OUTPUT_LIST = (
 
 #: outputs that only adaptive methods produce
 ADAPTIVE_OUTPUTS = ("W_friction_error_estimate",)
+
+
+def output_names(adaptive: bool) -> tuple[str, ...]:
+    """The per-trajectory variables of a run, in dataset order."""
+    return tuple(name for name in OUTPUTS if adaptive or name not in ADAPTIVE_OUTPUTS)
 
 OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OUTPUT_LIST}
 
