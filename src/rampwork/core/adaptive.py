@@ -239,16 +239,17 @@ def _dense_value(kind, lanes, i, dense, h, theta, settings, shared):
     return lanes[SN * LANES + i] * normal_term(v, fpp, lanes[G * LANES + i])
 
 
-def _locate_dense(kind, lanes, i, dense, h, value_end, settings, shared):
-    """Smallest theta in (0, 1] at which event ``kind`` has happened on the
-    step's dense output (Illinois, to a bracket of a few rounding units; the
-    dense output itself is accurate to the tolerance).  Returns the bracket
-    end on the event side; 0 if the event holds at the step start."""
+def _locate_dense(kind, lanes, i, dense, h, theta_end, value_end, settings, shared):
+    """Smallest theta in (0, theta_end] at which event ``kind`` has happened
+    on the step's dense output, given its value there (Illinois, to a bracket
+    of a few rounding units; the dense output itself is accurate to the
+    tolerance).  Returns the bracket end on the event side; 0 if the event
+    holds at the step start."""
     a = 0.0
     fa = dense_value(kind, lanes, i, dense, h, 0.0, settings, shared)
     if not fa > 0.0:
         return 0.0
-    b = 1.0
+    b = theta_end
     fb = value_end
     side = 0
     for _ in range(100):
@@ -306,10 +307,31 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
     for k in range(4):
         if not values[k] > 0.0:
             kind = np.int64(EV_EXIT_LO + k)  # one argument type: one compilation
-            theta = locate_dense(kind, lanes, i, dense, h_end, values[k], settings, shared)
+            theta = locate_dense(kind, lanes, i, dense, h_end, 1.0, values[k], settings, shared)
             if best_kind == EV_NONE or theta < best_theta:
                 best_theta = theta
                 best_kind = kind
+    # A long step can hold two events of which the end shows only one: a block
+    # that passes the domain's end and comes back before the step ends shows
+    # its reversal but not its exit.  Check every event function at the
+    # earliest event found; one that has already happened there came first.
+    for _ in range(4):
+        if best_kind == EV_NONE or best_theta <= 0.0:
+            break
+        earlier = False
+        for k in range(4):
+            kind = np.int64(EV_EXIT_LO + k)
+            if kind == best_kind or (kind == EV_CONTACT and not CHECK_CONTACT):
+                continue
+            value = dense_value(kind, lanes, i, dense, h_end, best_theta, settings, shared)
+            if not value > 0.0:
+                best_theta = locate_dense(kind, lanes, i, dense, h_end, best_theta, value,
+                                          settings, shared)
+                best_kind = kind
+                earlier = True
+                break
+        if not earlier:
+            break
     if best_kind == EV_NONE:
         if t_now + h < t_max:
             return True  # nothing here (cannot happen: the frozen step is recomputed)
