@@ -31,13 +31,22 @@ from .control import ERROR_FLOOR, ERROR_TINY, FACTOR_MIN, log2_approx, step_fact
 from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
 from .physics import acceleration, normal_term
 
+#: contact control: over an accepted step the normal term varies by at most
+#: this share of its smallest distance from 0 (at the stages); a step that
+#: varies more is refused and shrunk by CONTACT_SHRINK
+CONTACT_VARIATION = 0.5
+CONTACT_SHRINK = 0.5
+#: samples of the dense output searched for a lift-off that a stage saw inside
+#: the step but the step's end does not show
+N_DIP_SAMPLES = 16
+
 # bound per scene by kernel.build_kernel
 step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 LANES = 64
 CHAINS = 2
 (error_norm2, trial_step, apply_step, apply_event, rebase, finish_lane, dense_value,
- locate_dense, attempt, dense_point) = (None,) * 10
+ locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 13
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -46,6 +55,12 @@ LOG2_ERROR_FLOOR = math.log2(ERROR_FLOOR)
 #: the error norm's denominator is a product of eight scales; with atol >=
 #: 1e-20 it stays far from underflow
 ERROR_NORM_BAD = 1.0e300
+
+
+def _contact_holds(sn, n_end, n_low, n_high):
+    """The contact's sign ``sn`` held at the step's end and at every stage
+    (n_low, n_high: the stages' range of the normal term)."""
+    return (sn * n_end > 0.0) & ((n_low > 0.0) if sn > 0.0 else (n_high < 0.0))
 
 
 def _error_norm2(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k, rtol, atol):
@@ -112,7 +127,7 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     w = lanes[W * LANES + i]
     k = lanes[K * LANES + i]
     frozen = lanes[PENDING * LANES + i] > 0.0
-    x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek = step(
+    x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high = step(
         x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
         lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
     w1 = w + dw
@@ -121,14 +136,25 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
     accepted = bounded & (err2 <= 1.0)
     event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
+    rough = False
     if CHECK_CONTACT:
-        event = event | (not lanes[SN * LANES + i] * normal_term(v1, fpp7, g) > 0.0)
+        sn = lanes[SN * LANES + i]
+        holds = contact_holds(sn, normal_term(v1, fpp7, g), n_low, n_high)
+        event = event | (not holds)
+        # Where contact holds, the normal term may vary over the step by at
+        # most a share of its distance from 0: otherwise a dip through 0 and
+        # back could hide between the stages.  Such a step is refused (its
+        # size halved) unless it already shows the lift-off as an event.
+        margin = sn * (n_low if sn > 0.0 else n_high)
+        rough = holds & (not n_high - n_low <= CONTACT_VARIATION * margin)
+        accepted = accepted & (not rough)
     commit = accepted & (not event) & (not frozen)
     hold = frozen | (accepted & event)
     log2_error = (0.5 * log2_approx(err2 if err2 > ERROR_TINY else ERROR_TINY)
                   if bounded else LOG2_ERROR_BAD)
     factor = step_factor(log2_error, lanes[LERR * LANES + i], accepted,
                          lanes[REJ * LANES + i] > 0.0)
+    factor = min(factor, CONTACT_SHRINK) if rough else factor
     h_new = min(h * factor, h_max)
     lanes[X * LANES + i] = x1 if commit else x
     lanes[V * LANES + i] = v1 if commit else v
@@ -163,7 +189,7 @@ def _trial_step_adaptive(lanes, i, h, shared):
 
 def _apply_step_adaptive(lanes, i, h, shared):
     """One step of size h from lane i's state, committed (events only)."""
-    x1, v1, dw, dk, a7, fp7, fpp7, _, _, ew, _ = trial_step(lanes, i, h, shared)
+    x1, v1, dw, dk, a7, fp7, fpp7, _, _, ew, _, _, _ = trial_step(lanes, i, h, shared)
     lanes[X * LANES + i] = x1
     lanes[V * LANES + i] = v1
     lanes[W * LANES + i] += dw
@@ -294,20 +320,34 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
     h_end = min(h, t_max - t_now)
-    dense, x1, v1, fpp1, err_work = dense_output(
+    dense, x1, v1, fpp1, err_work, n_low, n_high = dense_output(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i],
         lanes[FPP * LANES + i], lanes[A1 * LANES + i], lanes[Q * LANES + i],
         lanes[D * LANES + i], h_end, lanes[G * LANES + i], lanes[P0 * LANES + i],
         lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
-    contact = (lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
-               if CHECK_CONTACT else 1.0)
+    sn = lanes[SN * LANES + i]
+    contact = sn * normal_term(v1, fpp1, lanes[G * LANES + i]) if CHECK_CONTACT else 1.0
+    contact_end = 1.0
+    if CHECK_CONTACT and contact > 0.0 and not contact_holds(sn, contact * sn, n_low, n_high):
+        # a stage saw the normal term change sign inside the step: look for the
+        # first sample of the dense output where it has
+        for j in range(1, N_DIP_SAMPLES + 1):
+            theta = j / N_DIP_SAMPLES
+            value = dense_value(np.int64(EV_CONTACT), lanes, i, dense, h_end, theta, settings,
+                                shared)
+            if not value > 0.0:
+                contact = value
+                contact_end = theta
+                break
     values = (x1 - settings[SET_XLO], settings[SET_XHI] - x1, contact, lanes[D * LANES + i] * v1)
+    ends = (1.0, 1.0, contact_end, 1.0)
     best_kind = EV_NONE
     best_theta = 1.0
     for k in range(4):
         if not values[k] > 0.0:
             kind = np.int64(EV_EXIT_LO + k)  # one argument type: one compilation
-            theta = locate_dense(kind, lanes, i, dense, h_end, 1.0, values[k], settings, shared)
+            theta = locate_dense(kind, lanes, i, dense, h_end, ends[k], values[k], settings,
+                                 shared)
             if best_kind == EV_NONE or theta < best_theta:
                 best_theta = theta
                 best_kind = kind
@@ -334,7 +374,18 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             break
     if best_kind == EV_NONE:
         if t_now + h < t_max:
-            return True  # nothing here (cannot happen: the frozen step is recomputed)
+            # only a stage's sign of n flagged the step and the dense output
+            # shows no lift-off: the step stands
+            lanes[X * LANES + i] = x1
+            lanes[V * LANES + i] = v1
+            lanes[W * LANES + i] += dense_point(dense, h_end, 1.0, 8)
+            lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 12)
+            lanes[STEPS * LANES + i] += 1.0
+            lanes[EEST * LANES + i] += abs(err_work)
+            lanes[T * LANES + i] = t_now + h_end
+            refresh_slope(lanes, i, shared)
+            set_mode(lanes, i, lanes[D * LANES + i])
+            return True
         best_kind = np.int64(EV_TIMEOUT)  # the step reaches t_max with nothing before
     if best_theta > 0.0:
         lanes[X * LANES + i] += dense_point(dense, h_end, best_theta, 0)

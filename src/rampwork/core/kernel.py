@@ -442,6 +442,24 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
                 if best_kind == EV_NONE or h_k < best_h:
                     best_h = h_k
                     best_kind = kind
+    # A long step can hold two events of which its end shows only one (a
+    # block that passes the domain's end and comes back shows only its
+    # reversal): check every event function at the earliest event found.
+    for _ in range(4):
+        if best_kind == EV_NONE or best_h <= 0.0:
+            break
+        _, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, best_h, settings, shared)
+        values = (exit_lo, exit_hi, contact, reversal)
+        earlier = False
+        for k in range(4):
+            kind = np.int64(EV_EXIT_LO + k)
+            if kind != best_kind and not values[k] > 0.0:
+                best_h = locate_event(kind, lanes, i, best_h, values[k], settings, shared)
+                best_kind = kind
+                earlier = True
+                break
+        if not earlier:
+            break
     h_time = t_max - t_now
     if h_time < best_h or (best_kind == EV_NONE and h_time <= h_end):
         best_h = max(h_time, 0.0)
@@ -715,6 +733,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         add("dense_output", dense_template, **no_refcount)
         method_parts = (
             ("error_norm2", adaptive_parts._error_norm2),
+            ("contact_holds", adaptive_parts._contact_holds),
             ("attempt", adaptive_parts._attempt),
             ("trial_step", adaptive_parts._trial_step_adaptive),
             ("apply_step", adaptive_parts._apply_step_adaptive),

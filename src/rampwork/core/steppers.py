@@ -113,12 +113,15 @@ def _stage(x, v, q, g, p0, p1, p2, p3, shared):
 
 def _dopri5_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared):
     """The stages of one Dormand-Prince step: the 7th is at the new state
-    ``(x7, v7)``.  Returns ``(v2..v7, a2..a7, n1, n3..n7, fpp3..fpp7, fp7)``
-    (stage 2 only feeds the later stages)."""
+    ``(x7, v7)``.  Returns ``(x7, v3..v7, a3..a7, n1, n3..n7, fpp3..fpp7,
+    fp7, n_low, n_high)`` (stage 2 only feeds the later stages; n_low and
+    n_high bound the normal term over stages 2..7, which sample the step's
+    interior: a sign change there that the step's ends do not show is how a
+    long step would otherwise step over a lift-off)."""
     n1 = normal_term(v, fpp, g)
     x2 = fma(h * A21, v, x)
     v2 = fma(h * A21, a1, v)
-    _, _, _, a2 = _stage(x2, v2, q, g, p0, p1, p2, p3, shared)
+    _, _, n2, a2 = _stage(x2, v2, q, g, p0, p1, p2, p3, shared)
     x3 = fma(h, fma(A32, v2, A31 * v), x)
     v3 = fma(h, fma(A32, a2, A31 * a1), v)
     _, fpp3, n3, a3 = _stage(x3, v3, q, g, p0, p1, p2, p3, shared)
@@ -134,8 +137,10 @@ def _dopri5_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared):
     x7 = fma(h, fma(B6, v6, fma(B5, v5, fma(B4, v4, fma(B3, v3, B1 * v)))), x)
     v7 = fma(h, fma(B6, a6, fma(B5, a5, fma(B4, a4, fma(B3, a3, B1 * a1)))), v)
     fp7, fpp7, n7, a7 = _stage(x7, v7, q, g, p0, p1, p2, p3, shared)
+    n_low = min(min(n2, n3), min(min(n4, n5), min(n6, n7)))
+    n_high = max(max(n2, n3), max(max(n4, n5), max(n6, n7)))
     return (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
-            fpp3, fpp4, fpp5, fpp6, fpp7, fp7)
+            fpp3, fpp4, fpp5, fpp6, fpp7, fp7, n_low, n_high)
 
 
 def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
@@ -143,14 +148,15 @@ def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     carried from the previous step (FSAL).  Returns
 
         (x_new, v_new, friction_work, curvature_integral,
-         a_new, fp_new, fpp_new, err_x, err_v, err_work, err_curvature)
+         a_new, fp_new, fpp_new, err_x, err_v, err_work, err_curvature, n_low, n_high)
 
     the integrals' increments as in the fixed-step methods (5th order), the
-    acceleration and f', f'' at the new state (the next step's first stage) and
-    the embedded error estimate of each of the four components."""
+    acceleration and f', f'' at the new state (the next step's first stage),
+    the embedded error estimate of each of the four components and the range
+    of the normal term over the stages."""
     (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
-     fpp3, fpp4, fpp5, fpp6, fpp7, fp7) = _dopri5_stages(x, v, fpp, a1, q, h, g,
-                                                          p0, p1, p2, p3, shared)
+     fpp3, fpp4, fpp5, fpp6, fpp7, fp7, n_low, n_high) = _dopri5_stages(
+        x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared)
     w1, w3, w4, w5, w6, w7 = n1 * v, n3 * v3, n4 * v4, n5 * v5, n6 * v6, n7 * v7
     k1, k3, k4, k5, k6, k7 = fpp * v, fpp3 * v3, fpp4 * v4, fpp5 * v5, fpp6 * v6, fpp7 * v7
     qh = q * h
@@ -161,20 +167,21 @@ def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     err_v = h * _error6(a1, a3, a4, a5, a6, a7)
     err_work = qh * _error6(w1, w3, w4, w5, w6, w7)
     err_curvature = dh * _error6(k1, k3, k4, k5, k6, k7)
-    return (x7, v7, work, curvature, a7, fp7, fpp7, err_x, err_v, err_work, err_curvature)
+    return (x7, v7, work, curvature, a7, fp7, fpp7, err_x, err_v, err_work, err_curvature,
+            n_low, n_high)
 
 
 def dopri5_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     """The step's dense output and end point, for events.  Returns
 
-        (dense, x_new, v_new, fpp_new, err_work)
+        (dense, x_new, v_new, fpp_new, err_work, n_low, n_high)
 
     ``dense`` holds the coefficients c_j (j = 1..4) of y(theta) = y0 + h sum_j
     c_j theta^j for x, v, the friction work and the curvature integral, in
     that order (16 numbers; 4th order, exact at both ends)."""
     (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
-     fpp3, fpp4, fpp5, fpp6, fpp7, _) = _dopri5_stages(x, v, fpp, a1, q, h, g,
-                                                        p0, p1, p2, p3, shared)
+     fpp3, fpp4, fpp5, fpp6, fpp7, _, n_low, n_high) = _dopri5_stages(
+        x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared)
     w1, w3, w4, w5, w6, w7 = q * n1 * v, q * n3 * v3, q * n4 * v4, q * n5 * v5, q * n6 * v6, q * n7 * v7
     k1, k3, k4, k5, k6, k7 = (d * fpp * v, d * fpp3 * v3, d * fpp4 * v4, d * fpp5 * v5,
                               d * fpp6 * v6, d * fpp7 * v7)
@@ -187,7 +194,7 @@ def dopri5_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
              _dense_row(0, k1, k3, k4, k5, k6, k7), _dense_row(1, k1, k3, k4, k5, k6, k7),
              _dense_row(2, k1, k3, k4, k5, k6, k7), _dense_row(3, k1, k3, k4, k5, k6, k7))
     err_work = h * _error6(w1, w3, w4, w5, w6, w7)
-    return dense, x7, v7, fpp7, err_work
+    return dense, x7, v7, fpp7, err_work, n_low, n_high
 
 
 @jit
