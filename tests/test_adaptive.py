@@ -16,7 +16,9 @@ that scale.
 Kernel variants compiled here (numba caches them on disk; a fresh compile
 costs 10-50 s each): quadratic x {euler, semi_implicit_euler, rk4, dopri5
 (convex, and with contact checks for mixed curvature)}, dopri5 x {straight,
-circular_bowl, circular_dome, sine}, and straight rk4.
+circular_bowl, circular_dome, sine}, and straight rk4.  The default part runs
+in under 10 s once they are cached; the slow part (``-m slow``: 25 random
+batches per family) in about 30 s more.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import numpy as np
 import pytest
 
 import rampwork as rw
-from rampwork.core.status import EXITED, LIFTED_OFF, STUCK, TIMEOUT
+from rampwork.core.status import EXITED, LIFTED_OFF, STUCK
 from rampwork.errors import ConfigError
 
 hypothesis = pytest.importorskip("hypothesis")
@@ -205,21 +207,33 @@ def _zero_or(low, high, signed=False):
     """0 exactly, or a magnitude in [low, high] (with either sign): not the
     tiny nonzero values hypothesis likes, which make knife edges by
     construction (a start at v0 = -1e-100 uphill is one reversal away from
-    a start at rest)."""
+    a start at rest; a frictionless start at rest at x0 = 5e-324 in a bowl
+    is a Zeno cascade of reversals that the reference refuses)."""
     magnitude = st.floats(low, high)
     if signed:
         magnitude = st.tuples(st.sampled_from((-1.0, 1.0)), magnitude).map(lambda p: p[0] * p[1])
-    return st.one_of(st.just(0.0), magnitude)
+    # zero one time in four: a start at rest on the bottom of a frictionless
+    # bowl or the top of a dome is a knife edge that teaches nothing twice
+    return st.integers(0, 3).flatmap(lambda k: st.just(0.0) if k == 0 else magnitude)
+
+
+def _parameter(low, high):
+    """A shape parameter in [low, high]; one whose range holds 0 is 0 or at
+    least 1e-3 away from it (a slope of 1e-218 makes a motion of 1e-218 m)."""
+    if not low < 0.0 < high:
+        return st.floats(low, high)
+    return st.one_of(_zero_or(1e-3, -low).map(lambda x: -x), _zero_or(1e-3, high))
 
 
 def case_strategy(family):
     (lo, hi), params = FAMILY_SPACE[family]
+    assert lo == -hi
     return st.fixed_dictionaries({
-        "x0": st.floats(0.95 * lo, 0.95 * hi),
+        "x0": _zero_or(1e-3 * hi, 0.95 * hi, signed=True),  # (symmetric domains)
         "v0": _zero_or(0.05, 2.0, signed=True),
         "mu_k": _zero_or(0.01, 0.4),
         "static_extra": _zero_or(0.01, 0.2),  # mu_s - mu_k
-        **{name: st.floats(a, b) for name, (a, b) in params.items()},
+        **{name: _parameter(a, b) for name, (a, b) in params.items()},
     })
 
 
@@ -258,9 +272,11 @@ def _sensitivity(reference, scene, overrides, ref):
     scale) when the start or the friction moves by that much.  A local
     integration error is such a perturbation, so 10 rtol kappa is what
     '10x rtol' means for this trajectory.  It is large where the answer is
-    ill-conditioned: a slow creep off a rest point that barely fails to hold
-    (|f'| just above mu_s), an exit at low speed (t_end = distance / speed).
-    None when the perturbation changes the event sequence (knife edge)."""
+    ill-conditioned, e.g. where the motion after a reversal near the rest
+    threshold depends strongly on how that reversal came about (measured:
+    up to ~60 for W on such runs; slow events, which these perturbations
+    miss, are covered by ``_event_timing_kappa``).  None when the
+    perturbation changes the event sequence (a knife edge at 1e-6)."""
     kappa = dict.fromkeys(QUANTITIES, 1.0)
     for moved in _perturbed(overrides, SENSITIVITY_STEP, scene.ramp.domain):
         other = reference.reference_trajectory(scene, **moved, rtol=1e-13, atol=1e-13)
@@ -271,12 +287,48 @@ def _sensitivity(reference, scene, overrides, ref):
     return kappa
 
 
+def _event_timing_kappa(ref, mu_k, g=G):
+    """A second condition number, for t_end: the error control is absolute
+    in v (atol = rtol m/s), and a velocity error dv moves an event that the
+    motion approaches with acceleration a by dv / a.  Slow events are thus
+    ill-conditioned in time: a stop or reversal approached with a small net
+    acceleration, a departure from a rest point that barely fails to hold
+    (|f'| - mu_k small: a creep of millimetres over half a second), an exit
+    at low speed (dt = dx / v).  Start perturbations miss these, so they are
+    read off the reference's events: (1 m/s^2) / |a| and (1 m/s) / |v|.
+    Found by hypothesis: a block released on a sine ramp reverses where
+    |f'| - mu_k = 0.0057 and creeps 2.5 mm in 0.5 s before it sticks; its
+    t_end is off by 17x rtol in rampwork and 27x in scipy's RK45."""
+    kappa = 1.0
+    d = 0.0
+    for e in ref["events"]:
+        fp, n = e["fp"], e["n"]
+        if e["kind"] == "start":
+            if e["v"] != 0.0:
+                d = math.copysign(1.0, e["v"])
+            elif e["margin"] > 0.0:  # leaves the rest point downhill
+                d = -math.copysign(1.0, fp)
+                kappa = max(kappa, (1 + fp * fp) / max((abs(fp) - mu_k) * g, 1e-300))
+        elif e["kind"] in ("reversal", "stop"):
+            kappa = max(kappa, (1 + fp * fp) / max(abs(fp + d * mu_k) * n, 1e-300))
+            if e["kind"] == "reversal":
+                kappa = max(kappa, (1 + fp * fp) / max((abs(fp) - mu_k) * n, 1e-300))
+                d = -math.copysign(1.0, fp)
+        elif e["kind"] == "exit":
+            kappa = max(kappa, 1.0 / max(abs(e["v"]), 1e-300))
+    return kappa
+
+
 def _knife_edge(reference, scene, overrides, ref, rtol):
     """Whether the reference's event sequence changes under a perturbation of
     KNIFE_EDGE * rtol: then an engine run with errors of order rtol may
     legitimately take the other branch (stick or slide on, exit or stop
     just before the end, lift off or stay on at a grazing normal force,
-    an event just before or after t_max)."""
+    an event just before or after t_max).  Also where the whole motion is
+    within the tolerance (a path shorter than KNIFE_EDGE * rtol metres, with
+    atol = rtol): then where it turns is below what was asked for."""
+    if ref["path"] <= KNIFE_EDGE * rtol:
+        return True
     for moved in _perturbed(overrides, KNIFE_EDGE * rtol, scene.ramp.domain):
         other = reference.reference_trajectory(scene, **moved, rtol=1e-13, atol=1e-13)
         if (other["status"], other["n_reversals"]) != (ref["status"], ref["n_reversals"]):
@@ -320,13 +372,18 @@ def check_random_batch(family, cases, reference):
         overrides = _case_overrides(family, case)
         ref = reference.reference_trajectory(scene, **overrides, rtol=1e-13, atol=1e-13)
         where = dict(family=family, **{k: float(v) for k, v in case.items()})
-        if ref["status"] != EXITED and not lo <= ref["x_end"] <= hi:
-            # the reference crossed an end and stopped beyond it within one of
-            # its own steps (scipy checks event signs at step ends only): it
+        outside = [e for e in ref["events"] if e["kind"] != "exit" and not lo <= e["x"] <= hi]
+        if outside:
+            # the reference crossed an end and reversed or stopped beyond it
+            # within one of its own steps (scipy looks at event signs at step
+            # ends only, and the exit's sign is back to positive there): it
             # cannot be compared with; the engine's invariants still are
-            skipped.append((i, f"reference ends outside the domain at {ref['x_end']!r}"))
+            skipped.append((i, f"reference {outside[0]['kind']} outside the domain at "
+                               f"{outside[0]['x']!r}"))
             ref = None
         kappa = None if ref is None else _sensitivity(reference, scene, overrides, ref)
+        if kappa is not None:
+            kappa["t_end"] = max(kappa["t_end"], _event_timing_kappa(ref, overrides["mu_k"]))
         for rtol, ds in results.items():
             got = ds.isel(case=i)
             failures += [(rtol, where, text) for text in _invariants(got, (lo, hi), T_MAX_RANDOM)]
@@ -361,20 +418,30 @@ def check_random_batch(family, cases, reference):
 
 
 RANDOM_SETTINGS = dict(deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
-                       suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+                       suppress_health_check=[HealthCheck.too_slow])
 
 
 @pytest.mark.parametrize("family", list(FAMILY_SPACE))
 @settings(max_examples=2, **RANDOM_SETTINGS)
 @given(data=st.data())
 def test_dopri5_random_scenes_within_10x_rtol(family, data, reference):
-    """A quick draw (2 batches of 6 per family); the slow variant draws more.
-    Errors within 10 rtol kappa (see ``_sensitivity``) for rtol = 1e-4 ...
-    1e-10.  Without kappa the bound fails on ill-conditioned trajectories
-    only, and by as much for scipy's RK45 (the same Dormand-Prince pair):
-    a creep off a barely unstable rest point makes t_end 17-23x rtol for both.
-    No shrinking: a failure lists every trajectory and tolerance it
-    concerns."""
+    """Random scenes of four families, rtol = 1e-4 ... 1e-10, against the
+    reference: W_friction, x_end and t_end within 10 rtol kappa of their SI
+    scale (kappa: the trajectory's condition number, ``_sensitivity`` and
+    ``_event_timing_kappa``; 1 for most runs; at rtol = 1e-4 see
+    LOOSE_RTOL), the same status and reversals unless the reference itself
+    is at a knife edge for that tolerance (``_knife_edge``), and invariants
+    that hold at any tolerance (``_invariants``: inside the domain, v = 0
+    when stuck, exits on an end, ...).  Without kappa the 10x bound fails
+    on ill-conditioned runs only, and there scipy's RK45 (the same pair)
+    fails it by as much.
+
+    Each example is a batch of 6 trajectories: one simulate call per
+    tolerance, one compilation per family (two for the quadratic: convex
+    batches skip the contact checks).  This quick draw takes 2 batches per
+    family; the slow variant 25.  Derandomized, so a run is reproducible;
+    no shrinking: a failure lists every trajectory and tolerance it
+    concerns, with its parameters."""
     check_random_batch(family, data.draw(st.lists(case_strategy(family), min_size=BATCH,
                                                   max_size=BATCH)), reference)
 
@@ -384,6 +451,7 @@ def test_dopri5_random_scenes_within_10x_rtol(family, data, reference):
 @settings(max_examples=25, **RANDOM_SETTINGS)
 @given(data=st.data())
 def test_dopri5_random_scenes_within_10x_rtol_many(family, data, reference):
+    """The same with 25 batches (150 trajectories) per family."""
     check_random_batch(family, data.draw(st.lists(case_strategy(family), min_size=BATCH,
                                                   max_size=BATCH)), reference)
 
@@ -450,7 +518,10 @@ def test_exit_is_found_when_the_block_would_stop_beyond_the_end(integrator, over
     the step and only the reversal shows.  An exit must still be found
     before the reversal: a run never ends stuck outside its domain.
     (Dormand-Prince integrates constant acceleration exactly, so its steps
-    grow long here whatever the tolerance.)"""
+    grow long here whatever the tolerance.)  Regression: until 089d7c3
+    dopri5 ended stuck at x = 3.001 / 3.1 at every tolerance (the random
+    scenes found the same on a level parabola, and a phantom reversal at
+    x = -1.036 outside [-1, 1]); until 1e7bcfe so did rk4 at dt = 0.2 s."""
     slope, mu_k, mu_s, lo, hi = 0.5, 0.2, 0.6, -2.0, 3.0
     a = G * (slope + mu_k) / (1 + slope**2)  # deceleration going up
     v0 = math.sqrt(2 * a * (hi + overshoot))
@@ -507,7 +578,8 @@ def test_lift_off_is_found_when_the_normal_force_dips_inside_one_step(reference)
     rtol = 1e-6 each step is accurate enough to see the dip (n to ~1e-5), so a
     dip 0.2 % of g deep is no knife edge (a 1e-4 change of the start or the
     friction does not remove it); a step that straddles the whole dip must
-    not step over the lift-off."""
+    not step over the lift-off.  Regression: until 1e7bcfe dopri5 at 1e-6
+    lifted off at x = -1.784 instead (W_friction 9.74 J for 4.88 J)."""
     ramp = rw.Ramp.create("sine", slope=-0.2962077727993549, amplitude=0.18158529065569318,
                           wavenumber=3.686599286299794, phase=2.166264083069422, domain=(-2.0, 2.0))
     scene = rw.Scene(ramp=ramp, friction=rw.Friction(0.20989624352131858), x0=1.6660491696128146,
@@ -561,11 +633,16 @@ def test_error_control_is_honest(reference):
       error estimates of W) is finite, positive where there is friction, no
       larger than what the acceptance test lets through (each accepted step's
       scaled error norm <= 1, so |error of W| <= 2 (atol + rtol |W|) per step),
-      and of the order of the actual error: the actual error at most 30x the
-      estimate plus one tolerance unit, and the median ratio between 0.1
-      and 1e3 (the estimate is of the embedded 4th-order solution, the one
-      carried on is 5th-order, so it overestimates, increasingly so as rtol
-      shrinks);
+      and of the order of the actual error: the error at most 30x the
+      estimate plus one tolerance unit (rtol max(W, 1)), the estimate at
+      most 1e3x the error (above 0.1 tolerance unit, under which an error
+      may be a lucky cancellation), and the median ratio between 0.1 and
+      1e3.  The estimate is of the embedded 4th-order solution while the
+      5th-order one is carried on, so it mostly overestimates, increasingly
+      so as rtol shrinks (median 3.5x at 1e-4, 18x at 1e-10).  It omits the
+      error of the dense output on which the final event is taken: a
+      two-step exit at rtol 1e-4 has an estimate of 8e-8 J for an error of
+      1.7e-5 J (0.17 rtol, within tolerance, so allowed);
     * the energy balance |W_friction - W_energy| within 10 rtol of the energy
       changing hands."""
     ramp = QUAD_BOWL
@@ -587,16 +664,21 @@ def test_error_control_is_honest(reference):
         assert np.all(rejected >= 0) and rejected.sum() <= 0.15 * steps.sum(), (rtol, rejected, steps)
         assert np.all(np.isfinite(estimate)) and np.all(estimate >= 0)
         assert np.all(estimate[moving & (w > 0)] > 0)
-        assert np.all(estimate <= 2 * steps * (rtol + rtol * w)), (rtol, estimate / (2 * steps * rtol * (1 + w)))
-        assert np.all(error <= 30 * estimate + rtol * np.maximum(1, w)), (rtol, error, estimate)
+        allowed = 2 * steps * (rtol + rtol * w)  # atol = rtol, m = 1
+        assert np.all(estimate <= allowed), (rtol, estimate / allowed)
+        unit = rtol * np.maximum(1, w)
+        assert np.all(error <= 30 * estimate + unit), (rtol, error / (30 * estimate + unit))
+        floor = 0.1 * unit  # errors below this may be lucky cancellations
+        assert np.all(estimate <= 1e3 * np.maximum(error, floor)), (rtol, estimate / np.maximum(error, floor))
         ratios.append(np.median(estimate[moving] / np.maximum(error[moving], 1e-300)))
         balance = np.abs(ds.energy_balance_error.values)
         assert np.all(balance <= 10 * rtol * energy_changing_hands(ds, ramp)), (rtol, balance)
         if rtol == HONESTY_RTOLS[0]:
-            previous = steps
+            previous = first = steps
         else:
             assert np.all(steps[moving] >= previous[moving]), rtol
             previous = steps
+    assert np.all(steps[moving] > first[moving])  # 1e-10 takes more steps than 1e-4, every run
     assert abs(_slope(HONESTY_RTOLS, totals) + 0.2) <= 0.1, totals
     assert all(0.1 <= r <= 1e3 for r in ratios), ratios
 
@@ -636,6 +718,7 @@ def test_dopri5_bitwise_identical_whatever_threads_order_and_chunks(monkeypatch)
     v0 = np.array([-2.0, -0.5, 0.0, 0.7, 2.5])
     mu = np.array([0.0, 0.05, 0.2, 0.35])
     grid = run(scene, rw.Sweep.grid(x0=x0, v0=v0, mu=mu))
+    assert grid.attrs["threads"] == numba.config.NUMBA_NUM_THREADS
     assert len(set(grid.status.values.ravel().tolist())) >= 3  # a mix of outcomes
     flat = {name: grid[name].values.ravel() for name in grid.data_vars}
     X, V, M = (a.ravel() for a in np.meshgrid(x0, v0, mu, indexing="ij"))
