@@ -243,32 +243,44 @@ def _masses(plan: RunPlan, start: int, stop: int) -> np.ndarray:
 # ------------------------------------------------------------------------------
 # reduction to the schema's variables
 # ------------------------------------------------------------------------------
-def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray) -> dict[str, np.ndarray]:
-    """The schema's per-trajectory variables from the kernel's per-unit-mass rows."""
+def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
+                   out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """The schema's per-trajectory variables from the kernel's per-unit-mass rows.
+
+    With ``out`` (name -> array of the chunk's length), the variables are
+    written into those arrays (only the names present), without temporaries
+    of their own; returns ``out``."""
+    if out is None:
+        out = {name: np.empty(raw.shape[1], dtype=schema.OUTPUTS[name].np_dtype)
+               for name in schema.OUTPUTS}
     mu_k = inputs[K.IN_MUK]
     g = inputs[K.IN_G]
+    weight = mass * g  # m g: the straight-ramp estimates' force per unit mu
+    copies = {"status": K.OUT_STATUS, "t_end": K.OUT_T, "x_end": K.OUT_X, "v_end": K.OUT_V,
+              "convexity_mean": K.OUT_CONVEXITY, "path_length_x": K.OUT_PATH,
+              "n_reversals": K.OUT_NREV, "x_lift_off": K.OUT_XLIFT, "steps": K.OUT_STEPS,
+              "steps_rejected": K.OUT_NREJ}
+    for name, row in copies.items():
+        if name in out:
+            out[name][...] = raw[row]  # casts to the schema's dtype
+    per_mass = {"W_friction": K.OUT_WORK, "W_energy": K.OUT_ENERGY_LOSS,
+                "W_friction_error_estimate": K.OUT_WORK_ERROR}
+    for name, row in per_mass.items():
+        if name in out:
+            np.multiply(mass, raw[row], out=out[name])
     w_friction = mass * raw[K.OUT_WORK]
-    w_energy = mass * raw[K.OUT_ENERGY_LOSS]
-    w_linear = mass * mu_k * g * np.abs(raw[K.OUT_X] - inputs[K.IN_X0])
-    return {
-        "status": raw[K.OUT_STATUS].astype(np.int8),
-        "t_end": raw[K.OUT_T],
-        "x_end": raw[K.OUT_X],
-        "v_end": raw[K.OUT_V],
-        "W_friction": w_friction,
-        "W_energy": w_energy,
-        "W_linear": w_linear,
-        "W_excess": w_friction - w_linear,
-        "W_path": mass * mu_k * g * raw[K.OUT_PATH],
-        "energy_balance_error": w_friction - w_energy,
-        "convexity_mean": raw[K.OUT_CONVEXITY],
-        "path_length_x": raw[K.OUT_PATH],
-        "n_reversals": raw[K.OUT_NREV].astype(np.int32),
-        "x_lift_off": raw[K.OUT_XLIFT],
-        "steps": raw[K.OUT_STEPS].astype(np.int64),
-        "steps_rejected": raw[K.OUT_NREJ].astype(np.int64),
-        "W_friction_error_estimate": mass * raw[K.OUT_WORK_ERROR],
-    }
+    w_linear = np.abs(raw[K.OUT_X] - inputs[K.IN_X0])
+    w_linear *= mu_k
+    w_linear *= weight
+    if "W_linear" in out:
+        out["W_linear"][...] = w_linear
+    if "W_excess" in out:
+        np.subtract(w_friction, w_linear, out=out["W_excess"])
+    if "W_path" in out:
+        np.multiply(mu_k * weight, raw[K.OUT_PATH], out=out["W_path"])
+    if "energy_balance_error" in out:
+        np.subtract(w_friction, mass * raw[K.OUT_ENERGY_LOSS], out=out["energy_balance_error"])
+    return out
 
 
 def tile_size(n: int, threads: int) -> int:
@@ -308,9 +320,8 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
                 inputs = chunk_inputs(plan, start, stop)
                 raw = np.zeros((K.N_OUTPUTS, stop - start))
                 run_batch(inputs, settings, raw, shared, tile_size(stop - start, threads))
-                for name, values in reduce_outputs(raw, inputs, _masses(plan, start, stop)).items():
-                    if name in results:
-                        results[name][start:stop] = values
+                reduce_outputs(raw, inputs, _masses(plan, start, stop),
+                               out={name: array[start:stop] for name, array in results.items()})
                 if progress is not None:
                     progress(stop, plan.size)
     finally:
