@@ -11,7 +11,7 @@ inside), rejects it (error norm > 1, or a state that is not finite or breaks
 the speed bound) or freezes on it (accepted but an event happens inside).  The
 step size is updated by the PI controller of ``control.py`` in every case but
 the freeze, so a frozen lane recomputes the same step until the scalar pass
-locates the event on the step's dense output, takes the partial step to it and
+locates the event on the step's dense output, moves the lane there (from the dense output) and
 applies it.  No lane waits for another: each carries its own step size, time
 and counts.
 
@@ -45,8 +45,8 @@ step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 LANES = 64
 CHAINS = 2
-(error_norm2, trial_step, apply_step, apply_event, rebase, finish_lane, dense_value,
- locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 13
+(error_norm2, apply_event, rebase, finish_lane, dense_value,
+ locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 11
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -177,31 +177,6 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
 # ------------------------------------------------------------------------------
 # scalar part
 # ------------------------------------------------------------------------------
-def _trial_step_adaptive(lanes, i, h, shared):
-    """One step of size h from lane i's state, not committed (the stepper's
-    full tuple)."""
-    return step(
-        lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
-        lanes[A1 * LANES + i], lanes[Q * LANES + i], lanes[D * LANES + i], h,
-        lanes[G * LANES + i], lanes[P0 * LANES + i], lanes[P1 * LANES + i],
-        lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
-
-
-def _apply_step_adaptive(lanes, i, h, shared):
-    """One step of size h from lane i's state, committed (events only)."""
-    x1, v1, dw, dk, a7, fp7, fpp7, _, _, ew, _, _, _ = trial_step(lanes, i, h, shared)
-    lanes[X * LANES + i] = x1
-    lanes[V * LANES + i] = v1
-    lanes[W * LANES + i] += dw
-    lanes[K * LANES + i] += dk
-    lanes[FP * LANES + i] = fp7
-    lanes[FPP * LANES + i] = fpp7
-    lanes[A1 * LANES + i] = a7
-    lanes[T * LANES + i] += h
-    lanes[STEPS * LANES + i] += 1.0
-    lanes[EEST * LANES + i] += abs(ew)
-
-
 def _start_adaptive(lanes, i, settings, shared):
     """Step-control state of a freshly loaded lane (after its mode is set).
 
@@ -396,4 +371,4 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         lanes[EEST * LANES + i] += abs(err_work)  # the whole step's: an upper bound
     t_event = t_now + best_theta * h_end
     lanes[T * LANES + i] = t_event
-    return apply_event(lanes, i, best_kind, 0.0, t_event, settings, outputs, shared)
+    return apply_event(lanes, i, best_kind, t_event, settings, outputs, shared)

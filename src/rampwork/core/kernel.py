@@ -478,15 +478,16 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         return False
 
     # 3. take the partial step to the event and apply the event
-    return apply_event(lanes, i, best_kind, best_h, t_now, settings, outputs, shared)
+    if best_h > 0.0:
+        apply_step(lanes, i, best_h, shared)
+    return apply_event(lanes, i, best_kind, t_now + best_h, settings, outputs, shared)
 
 
-def _apply_event(lanes, i, kind, h_event, t_now, settings, outputs, shared):
-    """Take the partial step of size h_event (from time t_now) to an event of
-    ``kind`` and apply it.  Returns True if the trajectory goes on."""
-    if h_event > 0.0:
-        apply_step(lanes, i, h_event, shared)
-    t_event = settings[SET_TMAX] if kind == EV_TIMEOUT else t_now + h_event
+def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
+    """Apply an event of ``kind`` to lane i, which is at the event (at time
+    t_event; t_max for a timeout).  Returns True if the trajectory goes on."""
+    if kind == EV_TIMEOUT:
+        t_event = settings[SET_TMAX]
     if kind == EV_EXIT_HI:
         lanes[X * LANES + i] = settings[SET_XHI]
     elif kind == EV_EXIT_LO:
@@ -735,8 +736,6 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("error_norm2", adaptive_parts._error_norm2),
             ("contact_holds", adaptive_parts._contact_holds),
             ("attempt", adaptive_parts._attempt),
-            ("trial_step", adaptive_parts._trial_step_adaptive),
-            ("apply_step", adaptive_parts._apply_step_adaptive),
             ("start_adaptive", adaptive_parts._start_adaptive),
             ("dense_point", adaptive_parts._dense_point),
             ("dense_value", adaptive_parts._dense_value),
