@@ -11,7 +11,7 @@ inside), rejects it (error norm > 1, or a state that is not finite or breaks
 the speed bound) or freezes on it (accepted but an event happens inside).  The
 step size is updated by the PI controller of ``control.py`` in every case but
 the freeze, so a frozen lane recomputes the same step until the scalar pass
-locates the event on the step's dense output, moves the lane there (from the dense output) and
+locates the event on the step's dense output, moves the lane there along it and
 applies it.  No lane waits for another: each carries its own step size, time
 and counts.
 
