@@ -9,6 +9,7 @@ chunk by chunk -> the compiled kernel fills flat result arrays ->
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import time
@@ -66,8 +67,20 @@ def _physical_memory() -> int:
         return 8 << 30
 
 
+def check_memory(plan: RunPlan) -> None:
+    """Refuse an in-memory run whose results would not fit (a file written
+    chunk by chunk, :func:`rampwork.run_to_file`, has no such limit)."""
+    memory = plan.size * BYTES_PER_TRAJECTORY
+    if memory > MEMORY_SHARE * _physical_memory():
+        raise ConfigError("sweep", f"{plan.size:,} trajectories need about {memory / 2**30:.1f} GiB for "
+                          f"their results, more than {MEMORY_SHARE:.0%} of this machine's "
+                          f"{_physical_memory() / 2**30:.1f} GiB; write them to a file chunk by chunk "
+                          "(rampwork.run_to_file, or `rampwork run`)")
+
+
 def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
-    """Check everything about a run before any work starts."""
+    """Check everything about a run before any work starts (except the memory
+    an in-memory result needs: :func:`check_memory`)."""
     if not isinstance(scene, Scene):
         raise ConfigError("scene", f"expected a rampwork.Scene, got {type(scene).__name__}")
     sweep = Sweep.single() if sweep is None else sweep
@@ -78,11 +91,6 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
         if name not in allowed:
             raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
     size = sweep.size
-    memory = size * BYTES_PER_TRAJECTORY
-    if memory > MEMORY_SHARE * _physical_memory():
-        raise ConfigError("sweep", f"{size:,} trajectories need about {memory / 2**30:.1f} GiB for "
-                          f"their results, more than {MEMORY_SHARE:.0%} of this machine's "
-                          f"{_physical_memory() / 2**30:.1f} GiB; split the sweep")
     axes = dict(sweep.axes)
     lo, hi = scene.ramp.domain
 
@@ -181,6 +189,58 @@ def _settings(scene: Scene) -> np.ndarray:
     return settings
 
 
+@dataclass(frozen=True)
+class Prepared:
+    """A plan with its compiled kernels and the arrays every chunk shares."""
+
+    plan: RunPlan
+    run_batch: object
+    trace_one: object
+    settings: np.ndarray
+    shared: np.ndarray
+    compile_seconds: float
+
+
+def prepare(plan: RunPlan) -> Prepared:
+    """Build (or load) the plan's kernels and compile them on one trajectory."""
+    (run_batch, trace_one), build_seconds = get_kernel(plan)
+    settings = _settings(plan.scene)
+    compile_seconds = build_seconds + _warm_up(run_batch, plan, settings)
+    return Prepared(plan, run_batch, trace_one, settings, plan.scene.ramp.shared_array(),
+                    compile_seconds)
+
+
+def empty_results(plan: RunPlan, n: int) -> dict[str, np.ndarray]:
+    """Uninitialised arrays for the plan's output variables, ``n`` long."""
+    return {name: np.empty(n, dtype=schema.OUTPUTS[name].np_dtype)
+            for name in schema.output_names(plan.scene.integrator.adaptive)}
+
+
+def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
+              out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """Run the flat trajectories start..stop-1 and reduce them to the output
+    variables (into ``out`` when given). Call inside :func:`using_threads`."""
+    plan = prepared.plan
+    inputs = chunk_inputs(plan, start, stop)
+    raw = np.zeros((K.N_OUTPUTS, stop - start))
+    prepared.run_batch(inputs, prepared.settings, raw, prepared.shared, tile_size(stop - start, threads))
+    if out is None:
+        out = empty_results(plan, stop - start)
+    return reduce_outputs(raw, inputs, _masses(plan, start, stop), out=out)
+
+
+@contextlib.contextmanager
+def using_threads(threads: int):
+    """numba's thread count (restored afterwards) and one-tile scheduling."""
+    previous_threads = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        with numba.parallel_chunksize(1):
+            yield
+    finally:
+        numba.set_num_threads(previous_threads)
+
+
 def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray) -> float:
     """Compile (or load) the kernel on one trajectory that ends at once (it
     starts on the domain's upper end moving out), so that compile time is
@@ -202,7 +262,7 @@ def axis_values(plan: RunPlan, start: int, stop: int) -> dict[str, np.ndarray]:
     if not sweep.axes:
         return {}
     if sweep.kind == "cases":
-        return {name: np.asarray(values)[start:stop] for name, values in sweep.axes}
+        return {name: np.array(values[start:stop]) for name, values in sweep.axes}
     index = np.unravel_index(np.arange(start, stop), plan.shape)
     return {name: np.asarray(values)[index[k]] for k, (name, values) in enumerate(sweep.axes)}
 
@@ -302,44 +362,41 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     optional callable ``progress(done, total)`` called after each chunk.
     """
     plan = plan_run(scene, sweep)
-    threads = _thread_count(threads)
-    (run_batch, trace_one), build_seconds = get_kernel(plan)
-    settings = _settings(scene)
-    shared = scene.ramp.shared_array()
-    compile_seconds = build_seconds + _warm_up(run_batch, plan, settings)
+    check_memory(plan)
+    threads = thread_count(threads)
+    prepared = prepare(plan)
 
-    results = {name: np.empty(plan.size, dtype=schema.OUTPUTS[name].np_dtype)
-               for name in schema.output_names(scene.integrator.adaptive)}
-    previous_threads = numba.get_num_threads()
-    numba.set_num_threads(threads)
+    results = empty_results(plan, plan.size)
     started = time.perf_counter()
-    try:
-        with numba.parallel_chunksize(1):
-            for start in range(0, plan.size, CHUNK_SIZE):
-                stop = min(plan.size, start + CHUNK_SIZE)
-                inputs = chunk_inputs(plan, start, stop)
-                raw = np.zeros((K.N_OUTPUTS, stop - start))
-                run_batch(inputs, settings, raw, shared, tile_size(stop - start, threads))
-                reduce_outputs(raw, inputs, _masses(plan, start, stop),
-                               out={name: array[start:stop] for name, array in results.items()})
-                if progress is not None:
-                    progress(stop, plan.size)
-    finally:
-        numba.set_num_threads(previous_threads)
+    with using_threads(threads):
+        for start in range(0, plan.size, CHUNK_SIZE):
+            stop = min(plan.size, start + CHUNK_SIZE)
+            run_chunk(prepared, start, stop, threads,
+                      out={name: array[start:stop] for name, array in results.items()})
+            if progress is not None:
+                progress(stop, plan.size)
     run_seconds = time.perf_counter() - started
 
-    dataset = _dataset(plan, results)
+    layout = dataset_layout(plan)
+    dataset = xr.Dataset({name: (layout.dims, values.reshape(layout.shape), layout.attrs[name])
+                          for name, values in results.items()}, coords=layout.coords)
     if scene.record.enabled:
-        trace_started = time.perf_counter()
-        dataset = dataset.merge(_traces(plan, trace_one, settings, shared))
-        # includes trace_one's own first compilation
-        dataset.attrs["trace_time_s"] = time.perf_counter() - trace_started
+        dataset, trace_seconds = with_traces(prepared, dataset)
+        dataset.attrs["trace_time_s"] = trace_seconds
     steps = int(results["steps"].sum())
-    dataset.attrs.update(_attributes(plan, compile_seconds, run_seconds, threads, steps))
+    dataset.attrs.update(attributes(plan, prepared.compile_seconds, run_seconds, threads, steps))
     return dataset
 
 
-def _thread_count(threads: int | None) -> int:
+def with_traces(prepared: Prepared, dataset: xr.Dataset) -> tuple[xr.Dataset, float]:
+    """``dataset`` with the scene's recorded trajectories merged in, and the
+    seconds they took (including ``trace_one``'s own first compilation)."""
+    started = time.perf_counter()
+    traces = _traces(prepared.plan, prepared.trace_one, prepared.settings, prepared.shared)
+    return dataset.merge(traces), time.perf_counter() - started
+
+
+def thread_count(threads: int | None) -> int:
     available = numba.config.NUMBA_NUM_THREADS
     if threads is None:
         return available
@@ -351,7 +408,19 @@ def _thread_count(threads: int | None) -> int:
     return int(threads)
 
 
-def _dataset(plan: RunPlan, results: dict[str, np.ndarray]) -> xr.Dataset:
+@dataclass(frozen=True)
+class DatasetLayout:
+    """What a run's dataset looks like before it has values: the output
+    variables' dims, shape and attributes, and the coordinates (small arrays,
+    the sweep's own axes)."""
+
+    dims: tuple[str, ...]
+    shape: tuple[int, ...]
+    attrs: dict[str, dict]
+    coords: dict[str, tuple]
+
+
+def dataset_layout(plan: RunPlan) -> DatasetLayout:
     sweep = plan.sweep
     ramp_parameters = plan.scene.ramp.spec.parameters
     dims = sweep.dims if sweep.axes else ()
@@ -363,10 +432,8 @@ def _dataset(plan: RunPlan, results: dict[str, np.ndarray]) -> xr.Dataset:
         coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.asarray(values), attrs)
     if sweep.kind == "cases" and sweep.axes:
         coords["case"] = ("case", np.arange(plan.size), {"long_name": "case number", "units": "1"})
-    data_vars = {}
-    for name, values in results.items():
-        data_vars[name] = (dims, values.reshape(shape), schema.output_attrs(name))
-    return xr.Dataset(data_vars, coords=coords)
+    attrs = {name: schema.output_attrs(name) for name in schema.output_names(plan.scene.integrator.adaptive)}
+    return DatasetLayout(tuple(dims), tuple(shape), attrs, coords)
 
 
 def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
@@ -421,12 +488,14 @@ def scene_text(scene: Scene, sweep: Sweep) -> str:
     return "\n".join(lines[:start] + note + lines[end:]) + "\n"
 
 
-def _attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps) -> dict:
+def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
+               entry: str = "rampwork.simulate") -> dict:
+    """The dataset's global attributes (``entry``: what made it, for history)."""
     scene = plan.scene
     return schema.global_attrs(
         scene.title,
         scene_text(scene, plan.sweep),
-        f"rampwork.simulate: {plan.size} trajectories, {scene.integrator.describe()}",
+        f"{entry}: {plan.size} trajectories, {scene.integrator.describe()}",
         {
             "ramp_family": scene.ramp.family,
             "ramp_domain": np.array(scene.ramp.domain),
