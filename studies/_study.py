@@ -38,6 +38,14 @@ def scale(args, smoke, default, full):
     return smoke if args.smoke else full if args.full else default
 
 
+def even(start: float, stop: float, intervals: int):
+    """``intervals + 1`` evenly spaced values, rounded to 12 decimals so that
+    round values (0, 0.2, ...) are exact grid values that ``sel`` finds."""
+    import numpy as np
+
+    return np.round(np.linspace(start, stop, intervals + 1), 12)
+
+
 def fail(study: str, message: str) -> None:
     sys.exit(f"{study}: FAILED: {message}")
 

@@ -39,7 +39,7 @@ def start_slope(curvature):
 def run(n_mu: int):
     import rampwork as rw
 
-    mu = np.arange(n_mu + 1) / (n_mu / MU_MAX)  # exact multiples of the step, 0 and 0.3 included
+    mu = _study.even(0, MU_MAX, n_mu)
     scene = rw.Scene(
         ramp=rw.Ramp.create("quadratic", curvature=0.0, slope=start_slope(0.0), height=H,
                             domain=(0.0, L)),
