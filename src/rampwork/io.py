@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,8 @@ import xarray as xr
 from rampwork import schema
 from rampwork.errors import ConfigError
 
-__all__ = ["write_netcdf", "open_dataset", "check_writable", "temp_path", "CHUNK_BYTES"]
+__all__ = ["write_netcdf", "open_dataset", "check_writable", "temp_path", "define_variables",
+           "set_attributes", "replace_file", "CHUNK_BYTES"]
 
 #: target size of one HDF5 chunk of a large variable
 CHUNK_BYTES = 1 << 20
@@ -131,6 +133,79 @@ def _prepare(ds: xr.Dataset, complevel: int) -> tuple[xr.Dataset, dict]:
     return out, encoding
 
 
+def _check_level(compression_level) -> int:
+    if isinstance(compression_level, bool) or not isinstance(compression_level, (int, np.integer)) or not (
+        0 <= compression_level <= 9
+    ):
+        raise ConfigError("compression_level", f"{compression_level!r} is not an integer 0..9")
+    return int(compression_level)
+
+
+def define_variables(
+    nc,
+    ds: xr.Dataset,
+    *,
+    deferred: tuple[str, ...] = (),
+    chunksizes: Mapping[str, tuple[int, ...]] | None = None,
+    compression_level: int = 4,
+) -> None:
+    """Add ``ds``'s dimensions, variables and attributes to the open
+    ``netCDF4.Dataset`` ``nc`` with the encoding :func:`write_netcdf` gives
+    them, and write their values except those of ``deferred`` variables
+    (whose data in ``ds`` may be a zero-stride stand-in such as
+    ``np.broadcast_to``; the caller writes them later, piece by piece).
+    ``chunksizes`` replaces the chunk shape of the variables it names.
+    Global attributes: :func:`set_attributes`."""
+    prepared, encoding = _prepare(ds, _check_level(compression_level))
+    for dim, size in prepared.sizes.items():
+        if dim not in nc.dimensions:
+            nc.createDimension(dim, size)
+    coordinates = [name for name in prepared.coords if name not in prepared.dims]
+    for name, var in prepared.variables.items():
+        enc = encoding[name]
+        chunks = (chunksizes or {}).get(name, enc.get("chunksizes"))
+        target = nc.createVariable(
+            name, var.dtype, var.dims, fill_value=enc.get("_FillValue"),
+            compression="zlib" if enc.get("zlib") else None, complevel=enc.get("complevel", 4),
+            shuffle=enc.get("shuffle", False), chunksizes=chunks)
+        attrs = dict(var.attrs)
+        # xarray's rule: a variable lists the non-index coordinates within its dimensions
+        listed = [c for c in coordinates if c != name and set(prepared[c].dims) <= set(var.dims)]
+        if name in prepared.data_vars and listed:
+            attrs["coordinates"] = " ".join(listed)
+        target.setncatts(attrs)
+        if name not in deferred:
+            target[...] = var.values
+
+
+def set_attributes(nc, attrs: Mapping[str, Any]) -> None:
+    """Replace the open file's global attributes with ``attrs`` (flattened to
+    netCDF-legal names and values as :func:`write_netcdf` does)."""
+    for name in list(nc.ncattrs()):
+        nc.delncattr(name)
+    nc.setncatts(schema.netcdf_attrs(attrs))
+
+
+def fsync_file(path: str | os.PathLike) -> None:
+    """Push a file's written data to the disk (through another descriptor:
+    the netCDF library does not expose its own)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def replace_file(source: Path, path: Path, overwrite: bool) -> None:
+    """Rename the finished ``source`` to ``path`` atomically, refusing to
+    replace a ``path`` that appeared meanwhile unless ``overwrite``."""
+    fsync_file(source)
+    if not overwrite and path.exists():  # appeared while we were writing
+        raise ConfigError(str(path), "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+    os.replace(source, path)
+    _fsync_dir(path.parent)
+
+
 def write_netcdf(
     ds: xr.Dataset,
     path: str | os.PathLike,
@@ -145,30 +220,19 @@ def write_netcdf(
     flattened to netCDF-legal types (see :func:`schema.netcdf_attrs`).
     Refuses to replace an existing file unless ``overwrite``. Returns ``path``.
     """
-    if isinstance(compression_level, bool) or not isinstance(compression_level, (int, np.integer)) or not (
-        0 <= compression_level <= 9
-    ):
-        raise ConfigError("compression_level", f"{compression_level!r} is not an integer 0..9")
+    compression_level = _check_level(compression_level)
     path = check_writable(path, overwrite)
-    prepared, encoding = _prepare(ds, int(compression_level))
+    prepared, encoding = _prepare(ds, compression_level)
     tmp = temp_path(path)
     try:
         prepared.to_netcdf(tmp, mode="w", format=_FORMAT, engine=_ENGINE, encoding=encoding)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        if not overwrite and path.exists():  # appeared while we were writing
-            raise ConfigError(str(path), "exists; pass overwrite=True (CLI: --overwrite) to replace it")
-        os.replace(tmp, path)
+        replace_file(tmp, path, overwrite)
     except BaseException:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
         raise
-    _fsync_dir(path.parent)
     return path
 
 

@@ -1,0 +1,449 @@
+"""Sweeps written to a netCDF file chunk by chunk: bounded memory, resumable
+after an interruption, and the same sweep on a Dask cluster.
+
+The file is created whole first, as a partial file ``.NAME.partial`` beside
+the target: every variable, coordinate and attribute the in-memory dataset of
+:func:`rampwork.simulate` has. The sweep is cut into chunks that are
+hyperslabs of the output arrays (a run of indices along one dimension, the
+later dimensions whole), so a chunk is a contiguous range of flat trajectory
+indices and, in the file, exactly one HDF5 chunk per variable: writing it is
+one compressed block, never a read-modify-write. After each chunk the file is
+synced to disk and the chunk's bit set in the global attribute
+``rampwork_chunks_done``. An interrupted run (Ctrl-C, a killed process)
+leaves the finished chunks there; ``resume=True`` runs only the others. At
+the end the bookkeeping attributes give way to the run's own and the file is
+renamed to the target.
+
+Memory: a chunk's inputs, raw and reduced outputs (about 300 bytes per
+trajectory), whatever the sweep size. A ``cases`` sweep also holds its axis
+columns (the :class:`~rampwork.scene.Sweep` object keeps them).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import math
+import os
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from . import io, runner
+from ._version import __version__
+from .errors import ConfigError
+from .scene import Scene, Sweep
+
+__all__ = ["run_to_file", "SweepToFile", "ChunkLayout", "partial_path"]
+
+#: global attributes of a partial file (all replaced when it is finalised)
+DIGEST_ATTR = "rampwork_partial_digest"
+LAYOUT_ATTR = "rampwork_partial_chunk_layout"
+DONE_ATTR = "rampwork_chunks_done"
+RUN_TIME_ATTR = "rampwork_partial_run_time_s"
+#: changes whenever the partial file's layout or meaning changes
+PARTIAL_FORMAT = 1
+#: the done bits live in one attribute; HDF5 keeps attributes under 64 KiB compact
+MAX_CHUNKS = 8 * 60_000
+
+
+def partial_path(path: str | os.PathLike) -> Path:
+    """Where the unfinished run of ``path`` is kept."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.partial")
+
+
+@dataclass(frozen=True)
+class ChunkLayout:
+    """Chunks of an output array of ``shape``: ``rows`` indices along
+    dimension ``axis`` at a time, the dimensions after it whole, one index
+    at a time on those before it (C order, so each chunk is a contiguous
+    range of flat trajectory indices)."""
+
+    shape: tuple[int, ...]
+    axis: int
+    rows: int
+
+    @classmethod
+    def for_shape(cls, shape: tuple[int, ...], target: int) -> "ChunkLayout":
+        """Chunks of at most ``target`` trajectories where the shape allows
+        (a later dimension's whole extent is one chunk's smallest piece)."""
+        if not shape:
+            return cls((), 0, 1)
+        axis = next(k for k in range(len(shape)) if math.prod(shape[k + 1:]) <= target)
+        rows = max(1, min(shape[axis], target // math.prod(shape[axis + 1:])))
+        return cls(tuple(shape), axis, rows)
+
+    @property
+    def _per_outer(self) -> int:
+        return -(-self.shape[self.axis] // self.rows) if self.shape else 1
+
+    @property
+    def count(self) -> int:
+        return math.prod(self.shape[:self.axis]) * self._per_outer
+
+    @property
+    def chunksizes(self) -> tuple[int, ...]:
+        """The HDF5 chunk shape: one chunk of the layout (a full one)."""
+        return (1,) * self.axis + (self.rows,) + self.shape[self.axis + 1:]
+
+    def piece(self, index: int) -> tuple[int, int, tuple, tuple[int, ...]]:
+        """Chunk ``index``: flat start and stop, the index into the output
+        arrays, and the shape of the values there."""
+        if not self.shape:
+            return 0, 1, (), ()
+        outer, part = divmod(index, self._per_outer)
+        first = part * self.rows
+        last = min(first + self.rows, self.shape[self.axis])
+        inner = math.prod(self.shape[self.axis + 1:])
+        start = (outer * self.shape[self.axis] + first) * inner
+        where = (tuple(int(k) for k in np.unravel_index(outer, self.shape[:self.axis]))
+                 + (slice(first, last),))
+        return start, start + (last - first) * inner, where, (last - first,) + self.shape[self.axis + 1:]
+
+
+def run_digest(plan: runner.RunPlan) -> str:
+    """Names the results a run produces: the scene, its sweep and the version
+    that computes them. A partial file is resumed only with the same digest."""
+    text = runner.scene_text(plan.scene, plan.sweep)
+    return hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode()).hexdigest()
+
+
+def _open(path: Path, mode: str):
+    import netCDF4
+
+    return netCDF4.Dataset(path, mode, format="NETCDF4")
+
+
+class SweepToFile:
+    """One sweep written to one file; every check is made on construction,
+    before any work, and :meth:`run` does the work. See :func:`run_to_file`."""
+
+    def __init__(self, scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
+                 chunk_size: int | None = None, threads: int | None = None, resume: bool = False,
+                 overwrite: bool = False, scheduler=None):
+        self.plan = runner.plan_run(scene, sweep)
+        if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer))
+                                       or chunk_size < 1):
+            raise ConfigError("chunk_size", f"must be a positive integer, got {chunk_size!r}")
+        self.scheduler = _check_scheduler(scheduler, self.plan)
+        if self.scheduler is not None and threads is not None:
+            raise ConfigError("threads", "not used with a scheduler: each worker runs a chunk on "
+                              "its own threads")
+        self.threads = runner.thread_count(threads) if self.scheduler is None else None
+        self.path = io.check_writable(path, overwrite)
+        self.overwrite = overwrite
+        self.partial = partial_path(self.path)
+        self.digest = run_digest(self.plan)
+        self.layout = ChunkLayout.for_shape(runner.dataset_layout(self.plan).shape,
+                                            runner.CHUNK_SIZE if chunk_size is None else int(chunk_size))
+        self.done = np.zeros(self.layout.count, dtype=bool)
+        self.previous_run_seconds = 0.0
+        self.resuming = False
+        if self.partial.exists():
+            if resume:
+                self._read_partial(chunk_size)
+            elif not overwrite:
+                raise ConfigError(str(self.partial), "holds an unfinished run of this output; pass "
+                                  "resume=True (CLI: --resume) to finish it, or overwrite=True "
+                                  "(CLI: --overwrite) to start over")
+        if self.layout.count > MAX_CHUNKS:
+            raise ConfigError("chunk_size", f"{chunk_size!r} cuts {self.plan.size:,} trajectories into "
+                              f"{self.layout.count:,} chunks, more than {MAX_CHUNKS:,}; use larger chunks")
+
+    def _read_partial(self, chunk_size) -> None:
+        where = str(self.partial)
+        try:
+            with _open(self.partial, "r") as nc:
+                digest = nc.getncattr(DIGEST_ATTR)
+                axis, rows = (int(v) for v in np.atleast_1d(nc.getncattr(LAYOUT_ATTR)))
+                bits = np.atleast_1d(nc.getncattr(DONE_ATTR)).astype(np.uint8)
+                run_seconds = float(nc.getncattr(RUN_TIME_ATTR))
+        except (OSError, AttributeError, KeyError, ValueError, RuntimeError) as error:
+            raise ConfigError(where, f"cannot be resumed ({' '.join(str(error).split())}); remove it "
+                              "or pass overwrite=True (CLI: --overwrite) to start over") from None
+        if digest != self.digest:
+            raise ConfigError(where, "was started by a different scene, sweep or rampwork version; "
+                              "refusing to resume: pass overwrite=True (CLI: --overwrite) to start over")
+        layout = ChunkLayout(self.layout.shape, axis, rows)
+        if chunk_size is not None and layout != self.layout:
+            raise ConfigError("chunk_size", f"{chunk_size} differs from the partial run's chunks "
+                              f"({rows} along dimension {axis}); leave it unset to resume")
+        self.layout = layout
+        self.done = np.unpackbits(bits, count=layout.count).astype(bool)
+        self.previous_run_seconds = run_seconds
+        self.resuming = True
+
+    @property
+    def total_chunks(self) -> int:
+        return self.layout.count
+
+    @property
+    def done_chunks(self) -> int:
+        return int(self.done.sum())
+
+    def _done_trajectories(self) -> int:
+        return sum(stop - start for start, stop, _, _ in map(self.layout.piece, np.flatnonzero(self.done)))
+
+    # --------------------------------------------------------------------------
+    def run(self, progress=None) -> Path:
+        """Run the chunks not yet done, write each as it finishes, finalise and
+        rename. ``progress(done, total)`` (trajectories) is called once before
+        the first chunk and after each. On any exception, Ctrl-C included, the
+        partial file keeps every finished chunk. Returns the output path."""
+        if self.resuming:
+            nc = _open(self.partial, "a")
+        else:
+            nc = self._create()
+        info = {}
+        try:
+            pending = [int(i) for i in np.flatnonzero(~self.done)]
+            done = self._done_trajectories()
+            if progress is not None:
+                progress(done, self.plan.size)
+            started = time.perf_counter()
+            run_chunks = self._threaded if self.scheduler is None else self._distributed
+            chunks = run_chunks(pending, info)
+            for index, results in chunks:
+                start, stop, where, shape = self.layout.piece(index)
+                for name, values in results.items():
+                    nc[name][where] = values.reshape(shape)
+                self._mark_done(nc, index, time.perf_counter() - started)
+                done += stop - start
+                if progress is not None:
+                    progress(done, self.plan.size)
+            run_seconds = self.previous_run_seconds + time.perf_counter() - started
+            self._finalise(nc, run_seconds, info)
+        finally:
+            if nc.isopen():
+                nc.close()
+            if "close" in info:
+                info["close"]()
+        io.replace_file(self.partial, self.path, self.overwrite)
+        return self.path
+
+    def _create(self):
+        layout = runner.dataset_layout(self.plan)
+        placeholders = {name: (layout.dims, np.broadcast_to(np.zeros((), schema_dtype(name)), layout.shape), attrs)
+                        for name, attrs in layout.attrs.items()}
+        skeleton = xr.Dataset(placeholders, coords=layout.coords)
+        self.partial.unlink(missing_ok=True)  # a stale one: overwrite was asked for
+        nc = _open(self.partial, "w")
+        try:
+            chunks = {name: self.layout.chunksizes for name in layout.attrs} if layout.shape else {}
+            io.define_variables(nc, skeleton, deferred=tuple(layout.attrs), chunksizes=chunks)
+            attrs = runner.attributes(self.plan, 0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
+            attrs.update({DIGEST_ATTR: self.digest, LAYOUT_ATTR: np.array([self.layout.axis, self.layout.rows]),
+                          DONE_ATTR: np.packbits(self.done), RUN_TIME_ATTR: 0.0})
+            io.set_attributes(nc, attrs)
+            nc.sync()
+            io.fsync_file(self.partial)
+        except BaseException:
+            nc.close()
+            self.partial.unlink(missing_ok=True)
+            raise
+        return nc
+
+    def _mark_done(self, nc, index: int, seconds: float) -> None:
+        # the data reach the disk before the bit that says they are there
+        nc.sync()
+        self.done[index] = True
+        nc.setncattr(DONE_ATTR, np.packbits(self.done))
+        nc.setncattr(RUN_TIME_ATTR, self.previous_run_seconds + seconds)
+        nc.sync()
+        io.fsync_file(self.partial)
+
+    def _finalise(self, nc, run_seconds: float, info: dict) -> None:
+        steps = 0
+        for index in range(self.layout.count):  # chunk by chunk: memory stays bounded
+            steps += int(np.asarray(nc["steps"][self.layout.piece(index)[2]], dtype=np.int64).sum())
+        attrs = runner.attributes(self.plan, info["compile_time_s"], run_seconds, info["threads"], steps,
+                                  entry="rampwork.run_to_file")
+        if self.plan.scene.record.enabled:
+            traces, attrs["trace_time_s"] = info["traces"]()
+            io.define_variables(nc, traces)
+        attrs["chunks"] = self.layout.count
+        if "scheduler" in info:
+            attrs["scheduler"] = info["scheduler"]
+        io.set_attributes(nc, attrs)
+        nc.close()
+
+    # --------------------------------------------------------------------------
+    def _threaded(self, pending, info: dict):
+        """The pending chunks' results, in order, computed here; fills ``info``."""
+        prepared = runner.prepare(self.plan)
+        info.update({"compile_time_s": prepared.compile_seconds, "threads": self.threads,
+                     "traces": lambda: _traces(prepared)})
+
+        def chunks():
+            buffers = runner.empty_results(self.plan, max((self._length(i) for i in pending), default=0))
+            with runner.using_threads(self.threads):
+                for index in pending:
+                    start, stop, _, _ = self.layout.piece(index)
+                    out = {name: array[:stop - start] for name, array in buffers.items()}
+                    yield index, runner.run_chunk(prepared, start, stop, self.threads, out=out)
+
+        return chunks()
+
+    def _length(self, index: int) -> int:
+        start, stop, _, _ = self.layout.piece(index)
+        return stop - start
+
+    def _distributed(self, pending, info: dict):
+        """The pending chunks' results as they arrive from the cluster, one
+        task per chunk; fills ``info``."""
+        from distributed import as_completed
+
+        client, cluster = _connect(self.scheduler)
+        text = runner.scene_text(self.plan.scene, self.plan.sweep)
+        info.update({"compile_time_s": 0.0, "threads": sum(client.nthreads().values()),
+                "scheduler": str(client.scheduler.address)})
+        if cluster is not None:
+            info["close"] = lambda: (client.close(), cluster.close())
+
+        def traces():
+            return client.submit(_traces_task, text, pure=False).result()
+
+        info["traces"] = traces
+
+        def chunks():
+            shipped = client.scatter(text, broadcast=True)
+            # a few tasks per worker thread queued: workers stay busy and
+            # finished results wait for the client no longer than that
+            window = 2 * max(1, info["threads"])
+            todo = iter(pending)
+
+            def submit(index):
+                start, stop, _, _ = self.layout.piece(index)
+                return client.submit(_chunk_task, shipped, index, start, stop, pure=False)
+
+            running = as_completed([submit(i) for i in itertools.islice(todo, window)])
+            for future in running:
+                index, results, compile_seconds = future.result()
+                future.release()
+                info["compile_time_s"] = max(info["compile_time_s"], compile_seconds)
+                following = next(todo, None)
+                if following is not None:
+                    running.add(submit(following))
+                yield index, results
+
+        return chunks()
+
+
+def schema_dtype(name: str) -> np.dtype:
+    from . import schema
+
+    return schema.OUTPUTS[name].np_dtype
+
+
+def _traces(prepared: runner.Prepared) -> tuple[xr.Dataset, float]:
+    traces, seconds = runner.with_traces(prepared, xr.Dataset())
+    return traces, seconds
+
+
+# ------------------------------------------------------------------------------
+# Dask: the scheduler argument, and the tasks the workers run
+# ------------------------------------------------------------------------------
+def _check_scheduler(scheduler, plan: runner.RunPlan):
+    if scheduler is None:
+        return None
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ConfigError("scheduler", "needs dask.distributed: pip install 'rampwork[cluster]'") from None
+    if not isinstance(scheduler, (str, Client)) or (isinstance(scheduler, str) and not scheduler.strip()):
+        raise ConfigError("scheduler", f"expected 'local', a scheduler address such as "
+                          f"tcp://host:8786, or a distributed.Client; got {scheduler!r}")
+    if plan.scene.ramp.family == "callable":
+        raise ConfigError("scheduler", "a ramp of user functions cannot be shipped to workers "
+                          "(they rebuild the scene from its text); run it with threads")
+    return scheduler
+
+
+def _connect(scheduler):
+    """(client, cluster): the cluster is ours to close when we started it."""
+    from distributed import Client, LocalCluster
+
+    if isinstance(scheduler, Client):
+        return scheduler, None
+    if scheduler == "local":
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        cluster = LocalCluster(n_workers=cores, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        return Client(cluster), cluster
+    try:
+        return Client(scheduler, timeout="10s"), None
+    except (OSError, TimeoutError, ValueError) as error:
+        raise ConfigError("scheduler", f"cannot connect to {scheduler!r}: {' '.join(str(error).split())}") from None
+
+
+#: on a worker: prepared runs by scene text digest, and one kernel call at a
+#: time (a worker's threads share numba's thread pool)
+_WORKER_RUNS: dict[str, runner.Prepared] = {}
+_WORKER_LOCK = threading.Lock()
+
+
+def _worker_prepared(text: str) -> tuple[runner.Prepared, float]:
+    from .scenefile import parse_scene
+
+    key = hashlib.sha256(text.encode()).hexdigest()
+    if key in _WORKER_RUNS:
+        return _WORKER_RUNS[key], 0.0
+    scene, sweep = parse_scene(text, "scene shipped to a worker")
+    prepared = runner.prepare(runner.plan_run(scene, sweep))
+    _WORKER_RUNS[key] = prepared
+    return prepared, prepared.compile_seconds
+
+
+def _worker_threads() -> int:
+    import numba
+    from distributed import get_worker
+
+    worker = get_worker()
+    threads = getattr(getattr(worker, "state", None), "nthreads", None) or getattr(worker, "nthreads", 1)
+    return max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS))
+
+
+def _chunk_task(text: str, index: int, start: int, stop: int):
+    with _WORKER_LOCK:
+        prepared, compile_seconds = _worker_prepared(text)
+        threads = _worker_threads()
+        with runner.using_threads(threads):
+            return index, runner.run_chunk(prepared, start, stop, threads), compile_seconds
+
+
+def _traces_task(text: str):
+    with _WORKER_LOCK:
+        prepared, _ = _worker_prepared(text)
+        return _traces(prepared)
+
+
+# ------------------------------------------------------------------------------
+def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
+                chunk_size: int | None = None, threads: int | None = None, resume: bool = False,
+                overwrite: bool = False, progress=None, scheduler=None) -> Path:
+    """Run ``scene`` over ``sweep`` and write the results to the netCDF file
+    ``path`` chunk by chunk, in bounded memory; the file reads back
+    (:func:`rampwork.open_dataset`) equal, value for value, to
+    :func:`rampwork.simulate`'s dataset.
+
+    ``chunk_size``: trajectories per chunk (default ``runner.CHUNK_SIZE``);
+    each finished chunk is on disk in ``.NAME.partial`` beside ``path`` until
+    the run completes and the file is renamed to ``path``.
+    ``resume``: finish the unfinished run in that partial file, running only
+    the chunks it lacks; refused if it was started by another scene or sweep.
+    ``overwrite``: replace ``path`` if it exists, and start over from an
+    unfinished run left there.
+    ``progress``: optional ``progress(done, total)``, in trajectories.
+    ``scheduler``: run the chunks on a Dask cluster, one task per chunk: a
+    scheduler address, ``"local"`` (start a local cluster, one worker per
+    core) or a ``distributed.Client``; ``threads`` is then the workers'.
+    Returns ``path``.
+    """
+    job = SweepToFile(scene, sweep, path, chunk_size=chunk_size, threads=threads, resume=resume,
+                      overwrite=overwrite, scheduler=scheduler)
+    return job.run(progress)
