@@ -13,6 +13,7 @@ import os
 import sys
 import time
 from importlib import resources
+from pathlib import Path
 
 from ._version import __version__
 from .errors import ConfigError
@@ -155,21 +156,45 @@ def _warn_shadowed(overrides, sweep) -> None:
                   file=sys.stderr)
 
 
-class _Progress:
-    """``progress(done, total)`` for simulate: a line on stderr, rewritten."""
+def _clock(seconds: float) -> str:
+    seconds = int(round(seconds))
+    hours, rest = divmod(seconds, 3600)
+    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}" if hours else f"{rest // 60}:{rest % 60:02d}"
 
-    def __init__(self):
-        self.started = time.perf_counter()
-        self.last = 0.0
+
+class _Progress:
+    """``progress(done, total)``: a bar with the rate and the time left on
+    stderr, rewritten in place on a terminal, a line every few seconds
+    elsewhere (``--progress`` into a log)."""
+
+    WIDTH = 24
+
+    def __init__(self, stream=None):
+        self.stream = sys.stderr if stream is None else stream
+        self.tty = self.stream.isatty()
+        self.interval = 0.2 if self.tty else 5.0
+        self.first = None  # (time, done) at the first call: the rate counts this run's work only
+        self.last = -float("inf")
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
-        if done < total and now - self.last < 0.2:
+        if self.first is None:
+            self.first = (now, done)
+        if done < total and now - self.last < self.interval:
             return
         self.last = now
-        print(f"\r  {done:,}/{total:,} trajectories ({100 * done / max(total, 1):.0f}%, "
-              f"{now - self.started:.1f} s elapsed)",
-              end="\n" if done >= total else "", file=sys.stderr, flush=True)
+        started, done_before = self.first
+        rate = (done - done_before) / (now - started) if done > done_before and now > started else 0.0
+        share = done / max(total, 1)
+        filled = int(self.WIDTH * share)
+        left = _clock((total - done) / rate) if rate > 0 else "?"
+        line = (f"[{'#' * filled}{'-' * (self.WIDTH - filled)}] {100 * share:3.0f}%  "
+                f"{_si(done)}/{_si(total)} trajectories  {_si(rate)}/s  "
+                f"{_clock(now - started)} elapsed, {left} left")
+        if self.tty:
+            print(f"\r{line}", end="\n" if done >= total else "", file=self.stream, flush=True)
+        else:
+            print(line, file=self.stream, flush=True)
 
 
 # ----------------------------------------------------------------------------
@@ -177,48 +202,64 @@ class _Progress:
 # ----------------------------------------------------------------------------
 
 
+#: run_to_file's parameters as the command line spells them
+_RUN_OPTIONS = {"threads": "--threads", "chunk_size": "--chunk-size", "scheduler": "--scheduler"}
+
+
+def _run_error(args, error: ConfigError) -> ConfigError:
+    """An error of the run named by what the user typed: an option, the
+    output file (or its partial file), else the scene file."""
+    from .streaming import partial_path
+
+    if error.where in _RUN_OPTIONS:
+        return ConfigError(_RUN_OPTIONS[error.where], error.problem)
+    if error.where in (str(Path(args.output)), str(partial_path(args.output))):
+        return error
+    return ConfigError(args.scene, f"{error.where}: {error.problem}")
+
+
 def cmd_run(args) -> int:
-    from . import io
-    from .runner import simulate
+    import xarray as xr
+
+    from .streaming import SweepToFile
 
     scene, sweep = _load(args.scene, args.set)
     _warn_shadowed(args.set, sweep)
     _plan(args.scene, scene, sweep)
-    if args.threads is not None:
-        import numba
-
-        if args.threads > numba.config.NUMBA_NUM_THREADS:
-            raise ConfigError("--threads", f"at most {numba.config.NUMBA_NUM_THREADS} on this machine "
-                              f"(NUMBA_NUM_THREADS), got {args.threads}")
-    output = io.check_writable(args.output, args.overwrite)
+    try:
+        job = SweepToFile(scene, sweep, args.output, chunk_size=args.chunk_size, threads=args.threads,
+                          resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler)
+    except ConfigError as error:
+        raise _run_error(args, error) from None
     if not args.quiet:
         print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
               f"{scene.integrator.describe()}", flush=True)
-    progress = _Progress() if (not args.quiet and sys.stderr.isatty()) else None
+        if job.resuming:
+            print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
+                  flush=True)
+    progress = _Progress() if not args.quiet and (args.progress or sys.stderr.isatty()) else None
     try:
-        dataset = simulate(scene, sweep, threads=args.threads, progress=progress)
+        output = job.run(progress)
     except ConfigError as error:
-        if error.where == "threads":  # about the command line, not the scene
-            raise ConfigError("--threads", error.problem) from None
-        raise ConfigError(args.scene, f"{error.where}: {error.problem}") from None
-    io.write_netcdf(dataset, output, overwrite=args.overwrite)
+        raise _run_error(args, error) from None
+    except KeyboardInterrupt:
+        if job.partial.exists():
+            print(f"rampwork: note: {job.done_chunks} of {job.total_chunks} chunks are saved in "
+                  f"{job.partial}; run the same command with --resume to finish", file=sys.stderr)
+        raise
     if args.quiet:
         return EXIT_OK
-    attrs = dataset.attrs
+    with xr.open_dataset(output, engine="netcdf4", decode_times=False) as dataset:
+        attrs = dict(dataset.attrs)
+        counts = _status_counts(dataset["status"].values)  # one byte a trajectory
     run_s = float(attrs.get("run_time_s", float("nan")))
     compile_s = float(attrs.get("compile_time_s", float("nan")))
-    steps = attrs.get("trajectory_steps")
-    if steps is None and "steps" in dataset:
-        steps = int(dataset["steps"].sum())
-    rate = (f"{_si(steps / run_s)} trajectory-steps/s" if steps is not None and run_s > 0
-            else "trajectory-steps/s n/a")
-    n = int(attrs.get("n_trajectories", sweep.size))
-    print(f"trajectories  {n:,}")
+    steps = int(attrs["trajectory_steps"])
+    rate = f"{_si(steps / run_s)} trajectory-steps/s" if run_s > 0 else "trajectory-steps/s n/a"
+    print(f"trajectories  {int(attrs['n_trajectories']):,}")
     print(f"compile time  {_format_seconds(compile_s)}")
-    print(f"run time      {_format_seconds(run_s)}  ({rate}"
-          + (f", {int(steps):,} steps" if steps is not None else "") + ")")
-    if "status" in dataset:
-        print(f"status        {_format_counts(_status_counts(dataset['status'].values))}")
+    print(f"run time      {_format_seconds(run_s)}  ({rate}, {steps:,} steps)")
+    print(f"status        {_format_counts(counts)}")
     print(f"wrote         {output}")
     return EXIT_OK
 
@@ -318,9 +359,11 @@ def build_parser() -> argparse.ArgumentParser:
     run = commands.add_parser(
         "run", help="simulate a scene file and write the results to netCDF", formatter_class=fmt,
         description="Load SCENE (TOML), check everything (including that OUTPUT can be written) "
-                    "before any work, run every trajectory of its sweep, write OUTPUT as "
-                    "compressed netCDF4 (atomically) and print a summary: trajectories, compile "
-                    "and run time, trajectory-steps per second, end statuses.")
+                    "before any work, run every trajectory of its sweep chunk by chunk, writing "
+                    "each chunk's results to compressed netCDF4 as it finishes (memory stays "
+                    "bounded; an interrupted run continues with --resume), rename the finished "
+                    "file to OUTPUT and print a summary: trajectories, compile and run time, "
+                    "trajectory-steps per second, end statuses.")
     run.add_argument("scene", metavar="SCENE.toml", help="scene file (see `rampwork example`)")
     run.add_argument("-o", "--output", metavar="OUT.nc", required=True,
                      help="netCDF file to write (required); its directory must exist")
@@ -333,6 +376,20 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("-q", "--quiet", action="store_true",
                      help="print nothing but errors (default: a summary on stdout, progress on a "
                           "terminal's stderr)")
+    run.add_argument("--progress", action="store_true",
+                     help="show the progress bar (rate, time left) on stderr even when it is not a "
+                          "terminal: a line every 5 s")
+    run.add_argument("--resume", action="store_true",
+                     help="finish an interrupted run of OUT.nc: its finished chunks are kept in "
+                          ".OUT.nc.partial beside it, and only the others run; refused if the scene "
+                          "or sweep differ (without a partial file: an ordinary run)")
+    run.add_argument("--chunk-size", metavar="N", type=_positive_int, default=None,
+                     help="trajectories per chunk, the unit of writing, resuming and Dask tasks "
+                          "(default: 262144; a resumed run keeps its own)")
+    run.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                     help="run the chunks on a Dask cluster, one task per chunk: a scheduler address "
+                          "(tcp://host:8786), or 'local' to start one worker per core here; needs "
+                          "pip install 'rampwork[cluster]'")
     run.set_defaults(handler=cmd_run)
 
     check = commands.add_parser(
