@@ -22,7 +22,8 @@ from matplotlib.patches import Patch  # noqa: E402
 from .core.status import STATUS_TABLE  # noqa: E402
 from .errors import ConfigError  # noqa: E402
 
-__all__ = ["STYLE", "new_figure", "pretty_units", "label", "series", "heatmap", "status_map",
+__all__ = ["STYLE", "new_figure", "pretty_units", "label", "series", "heatmap", "category_map",
+           "status_map",
            "status_bars", "save", "plot_dataset", "KINDS", "add_plot_command", "cmd_plot"]
 
 STYLE = {
@@ -98,21 +99,27 @@ def _status_names(status) -> list[str]:
     return [name for code, name, _ in STATUS_TABLE if code in codes]
 
 
-def status_map(ax, status, x, y):
-    """End status[y, x] as grey levels and hatches, with a legend."""
-    status = np.asarray(status)
-    names = {code: name for code, name, _ in STATUS_TABLE}
+def category_map(ax, codes, x, y, looks, title: str | None = None):
+    """Integer categories codes[y, x] as grey levels and hatches, with a legend
+    beside the axes; ``looks`` maps code -> (label, grey, hatch)."""
+    codes = np.asarray(codes)
     ax.grid(False)
     handles = []
-    for code in sorted(int(c) for c in np.unique(status)):
-        grey, hatch = STATUS_LOOK.get(names.get(code, ""), ("0.5", ""))
-        cells = np.ma.masked_where(status != code, np.ones(status.shape))
+    for code in sorted(int(c) for c in np.unique(codes)):
+        text, grey, hatch = looks.get(code, (f"code {code}", "0.5", ""))
+        cells = np.ma.masked_where(codes != code, np.ones(codes.shape))
+        ink = "1.0" if float(grey) < 0.45 else "0.2"  # hatch colour: visible on the grey
         ax.pcolor(_edges(x), _edges(y), cells, cmap=matplotlib.colors.ListedColormap([grey]),
-                  hatch=hatch, edgecolor="face", linewidth=0)
-        handles.append(Patch(facecolor=grey, edgecolor="0.3", hatch=hatch,
-                             label=names.get(code, f"code {code}")))
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
-              title="end status")
+                  hatch=hatch, edgecolor=ink, linewidth=0, antialiased=False)
+        handles.append(Patch(facecolor=grey, edgecolor=ink, hatch=hatch, label=text))
+    return ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
+                     title=title)
+
+
+def status_map(ax, status, x, y):
+    """End status[y, x] as grey levels and hatches, with a legend."""
+    looks = {code: (name, *STATUS_LOOK.get(name, ("0.5", ""))) for code, name, _ in STATUS_TABLE}
+    category_map(ax, status, x, y, looks, title="end status")
 
 
 def _edges(centres) -> np.ndarray:
