@@ -19,6 +19,7 @@ from .io import open_dataset, write_netcdf
 from .ramps import FAMILIES, Ramp
 from .scene import Friction, Integrator, Record, Scene, Sweep
 from .runner import simulate
+from .streaming import run_to_file
 
 __all__ = [
     "__version__",
@@ -32,6 +33,7 @@ __all__ = [
     "Scene",
     "Sweep",
     "open_dataset",
+    "run_to_file",
     "simulate",
     "write_netcdf",
 ]

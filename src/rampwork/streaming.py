@@ -266,7 +266,6 @@ class SweepToFile:
         if self.plan.scene.record.enabled:
             traces, attrs["trace_time_s"] = info["traces"]()
             io.define_variables(nc, traces)
-        attrs["chunks"] = self.layout.count
         if "scheduler" in info:
             attrs["scheduler"] = info["scheduler"]
         io.set_attributes(nc, attrs)
