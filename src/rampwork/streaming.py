@@ -199,6 +199,10 @@ class SweepToFile:
             nc = _open(self.partial, "a")
         else:
             nc = self._create()
+        for name in runner.dataset_layout(self.plan).attrs:
+            # each chunk is written whole, once: a cache would only hold on to
+            # written chunks (netCDF's default allows 16 MiB per variable)
+            nc[name].set_var_chunk_cache(size=0)
         info = {}
         try:
             pending = [int(i) for i in np.flatnonzero(~self.done)]
