@@ -95,6 +95,8 @@ def run(n_kappa: int, n_mu: int, n_v0: int):
     runs = [run_family(f, kappa, mu, v0) for f in FAMILIES]
     ds = xr.concat([r.expand_dims(family=[f]) for r, f in zip(runs, FAMILIES)], "family",
                    combine_attrs="override")
+    # no circle is straight: the arcs' kappa = 0 cells were not run
+    ds["status"] = ds["status"].fillna(0).astype("int8").assign_attrs(runs[0]["status"].attrs)
     ds["kappa"].attrs.update(units="m-1", long_name="convexity parameter kappa",
                              comment="f'' of the parabola, 1/radius of the arc (signed), mean "
                                      "f'' of the sine half wave; > 0 convex")

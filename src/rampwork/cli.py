@@ -418,6 +418,10 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--no-scene", action="store_true", help="do not print the stored scene "
                       "(default: print it)")
     info.set_defaults(handler=cmd_info)
+
+    from .plotting import add_plot_command
+
+    add_plot_command(commands)
     return parser
 
 

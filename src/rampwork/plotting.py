@@ -10,17 +10,13 @@ style as well as colour, and constrained layout keeps text inside the figure.
 from __future__ import annotations
 
 import shutil
+from functools import cache
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Patch  # noqa: E402
-
-from .core.status import STATUS_TABLE  # noqa: E402
-from .errors import ConfigError  # noqa: E402
+from .core.status import STATUS_TABLE
+from .errors import ConfigError
 
 __all__ = ["STYLE", "new_figure", "pretty_units", "label", "series", "heatmap", "category_map",
            "status_map",
@@ -41,8 +37,27 @@ STATUS_LOOK = {"not_run": ("1.0", ""), "stuck": ("0.25", ""), "exited": ("0.85",
 _UNITS = {"1": "", "m s-1": "m/s", "m s-2": "m/s²", "m-1": "1/m", "s-1": "1/s"}
 
 
+@cache
+def pyplot():
+    """matplotlib.pyplot with the Agg backend, imported on first use (it takes
+    seconds, and the command line builds its parser for every command)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _patch(**kwargs):
+    from matplotlib.patches import Patch
+
+    return Patch(**kwargs)
+
+
 def new_figure(nrows: int = 1, ncols: int = 1, *, size=None, **kwargs):
     """A figure with constrained layout (no clipped text) in the house style."""
+    plt = pyplot()
     plt.rcParams.update(STYLE)
     size = size or (4.6 * ncols + 0.4, 3.7 * nrows + 0.5)
     return plt.subplots(nrows, ncols, figsize=size, layout="constrained", squeeze=False, **kwargs)
@@ -53,17 +68,30 @@ def pretty_units(units: str) -> str:
     return _UNITS.get(units, units)
 
 
+#: axis labels of the common variables, shorter than their long_name
+SHORT_NAMES = {"W_friction": "work against friction $W_f$",
+               "W_excess": r"excess work $W_f - \mu m g\,|\Delta x|$",
+               "W_linear": r"straight-ramp work $\mu m g\,|\Delta x|$",
+               "convexity_mean": "convexity: mean $f''$ along the path",
+               "v_end": "horizontal velocity at the end", "x_end": "position at the end x",
+               "mu": r"friction coefficient $\mu$", "mu_k": r"kinetic friction $\mu_k$",
+               "mu_s": r"static friction $\mu_s$", "v0": "start velocity v0",
+               "x0": "start position x0"}
+
+
 def label(variable, name: str | None = None) -> str:
-    """"long name (units)" of a dataset variable; dimensionless: no brackets."""
+    """"long name (units)" of a dataset variable (shorter for the common
+    ones, SHORT_NAMES); dimensionless: no brackets."""
     attrs = getattr(variable, "attrs", {})
-    text = attrs.get("long_name") or name or str(getattr(variable, "name", ""))
+    name = name or str(getattr(variable, "name", ""))
+    text = SHORT_NAMES.get(name) or attrs.get("long_name") or name
     units = pretty_units(str(attrs.get("units", "")))
     return f"{text} ({units})" if units else text
 
 
 def series(k: int, n: int) -> dict:
     """Line keywords of series k of n: viridis colour, marker and line style."""
-    colour = plt.get_cmap("viridis")(0.85 * k / max(1, n - 1))
+    colour = pyplot().get_cmap("viridis")(0.85 * k / max(1, n - 1))
     return dict(color=colour, marker=MARKERS[k % len(MARKERS)],
                 linestyle=LINESTYLES[k % len(LINESTYLES)], markersize=4.5, linewidth=1.4)
 
@@ -76,7 +104,7 @@ def heatmap(ax, values, x, y, *, colorbar_label: str, cmap: str = SEQUENTIAL, ze
     left light grey; ``mask_label`` names them in a legend.
     """
     values = np.ma.masked_invalid(np.asarray(values, dtype=float))
-    colours = plt.get_cmap(cmap).with_extremes(bad="0.93")
+    colours = pyplot().get_cmap(cmap).with_extremes(bad="0.93")
     mesh = ax.pcolormesh(x, y, values, cmap=colours, shading="nearest")
     bar = ax.figure.colorbar(mesh, ax=ax, label=colorbar_label)
     ax.grid(False)
@@ -89,7 +117,7 @@ def heatmap(ax, values, x, y, *, colorbar_label: str, cmap: str = SEQUENTIAL, ze
             ax.contour(x, y, values, levels=[0.0], colors="k", linewidths=1.2, linestyles="--")
             bar.ax.axhline(0.0, color="k", lw=1.2, ls="--")
     if mask_label and np.ma.count_masked(values):
-        ax.legend(handles=[Patch(facecolor="0.93", edgecolor="0.5", label=mask_label)],
+        ax.legend(handles=[_patch(facecolor="0.93", edgecolor="0.5", label=mask_label)],
                   loc="upper right", frameon=True, framealpha=0.9)
     return mesh
 
@@ -102,16 +130,18 @@ def _status_names(status) -> list[str]:
 def category_map(ax, codes, x, y, looks, title: str | None = None):
     """Integer categories codes[y, x] as grey levels and hatches, with a legend
     beside the axes; ``looks`` maps code -> (label, grey, hatch)."""
+    from matplotlib.colors import ListedColormap
+
     codes = np.asarray(codes)
     ax.grid(False)
     handles = []
-    for code in sorted(int(c) for c in np.unique(codes)):
+    for code in sorted(int(c) for c in np.unique(codes[np.isfinite(codes)])):
         text, grey, hatch = looks.get(code, (f"code {code}", "0.5", ""))
         cells = np.ma.masked_where(codes != code, np.ones(codes.shape))
         ink = "1.0" if float(grey) < 0.45 else "0.2"  # hatch colour: visible on the grey
-        ax.pcolor(_edges(x), _edges(y), cells, cmap=matplotlib.colors.ListedColormap([grey]),
+        ax.pcolor(_edges(x), _edges(y), cells, cmap=ListedColormap([grey]),
                   hatch=hatch, edgecolor=ink, linewidth=0, antialiased=False)
-        handles.append(Patch(facecolor=grey, edgecolor=ink, hatch=hatch, label=text))
+        handles.append(_patch(facecolor=grey, edgecolor=ink, hatch=hatch, label=text))
     return ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
                      title=title)
 
@@ -134,6 +164,7 @@ def _edges(centres) -> np.ndarray:
 def status_bars(ax, status):
     """How many trajectories ended in each status, as labelled bars."""
     status = np.asarray(status).ravel()
+    status = status[np.isfinite(status)]
     names = _status_names(status)
     codes = {name: code for code, name, _ in STATUS_TABLE}
     counts = [int((status == codes[name]).sum()) for name in names]
@@ -159,7 +190,7 @@ def save(fig, directory: Path, stem: str, *, pdf: bool = True, gallery: Path | N
     if pdf:
         written.append(directory / f"{stem}.pdf")
         fig.savefig(written[-1])
-    plt.close(fig)
+    pyplot().close(fig)
     if gallery is not None:
         written.append(Path(shutil.copyfile(written[0], Path(gallery) / written[0].name)))
     return written
@@ -178,20 +209,31 @@ def _sweep_dims(ds) -> list[str]:
     return [str(d) for d in ds["status"].dims] if "status" in ds else []
 
 
+def _axis_dims(ds) -> list[str]:
+    """Sweep dimensions that can be an axis: a numeric coordinate, more than one value."""
+    return [d for d in _sweep_dims(ds) if d != "case" and d in ds.coords
+            and ds[d].dtype.kind in "iuf" and ds.sizes[d] > 1]
+
+
 def _title(ds) -> str:
     return str(ds.attrs.get("title", "rampwork result"))
+
+
+def _value(item) -> str:
+    value = item.item()
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
 def _reduce_to(da, keep: list[str]):
     """Other sweep dims at their middle value; returns the data and a note."""
     picks = {d: da.sizes[d] // 2 for d in da.dims if d not in keep}
-    note = ", ".join(f"{d} = {float(da[d][i]):.4g}" if d in da.coords else f"{d} #{i}"
+    note = ", ".join(f"{d} = {_value(da[d][i])}" if d in da.coords else f"{d} #{i}"
                      for d, i in picks.items())
     return da.isel(picks), note
 
 
 def _lines(ds, fig_axes):
-    dims = _sweep_dims(ds)
+    dims = _axis_dims(ds)
     x, other = dims[0], dims[1:2]
     axes = fig_axes.ravel()
     for ax, name in zip(axes, _QUANTITIES):
@@ -200,7 +242,7 @@ def _lines(ds, fig_axes):
         picks = groups if len(groups) <= 6 else np.unique(np.linspace(0, len(groups) - 1, 6).round().astype(int))
         for k, g in enumerate(picks):
             line = da if g is None else da.isel({other[0]: g})
-            text = None if g is None else f"{other[0]} = {float(ds[other[0]][g]):.4g}"
+            text = None if g is None else f"{other[0]} = {_value(ds[other[0]][g])}"
             ax.plot(ds[x].values, line.values, label=text, markevery=max(1, da.sizes[x] // 12),
                     **series(k, len(picks)))
         ax.set_xlabel(label(ds[x], x))
@@ -212,7 +254,7 @@ def _lines(ds, fig_axes):
 
 
 def _maps(ds, fig_axes):
-    dims = _sweep_dims(ds)
+    dims = _axis_dims(ds)
     x, y = dims[1], dims[0]
     axes = fig_axes.ravel()
     for ax, name in zip(axes[:3], ("W_friction", "W_excess", "v_end")):
@@ -231,17 +273,16 @@ def _maps(ds, fig_axes):
 
 
 def _convexity(ds, ax):
-    dims = _sweep_dims(ds)
-    colour_by = next((d for d in ("mu", "mu_k") if d in ds.coords), None)
-    colour_by = colour_by or next((str(c) for c in ds.coords if ds[c].dims == tuple(dims[:1])), None)
-    c = ds["convexity_mean"].values.ravel()
-    w = ds["W_excess"].values.ravel()
-    shade = None
-    if colour_by is not None:
-        shade = np.broadcast_to(ds[colour_by], ds["W_excess"].shape).ravel() if ds[colour_by].dims \
-            else None
-    points = ax.scatter(c, w, c=shade, cmap="viridis", s=10, marker="o", edgecolors="none")
-    if shade is not None:
+    """Excess work against mean convexity, one point per trajectory, shaded by
+    the friction coefficient (or else the first numeric sweep coordinate)."""
+    shape_dims = ds["W_excess"].dims
+    numeric = [str(c) for c in ds.coords if str(c) != "case" and ds[c].dims
+               and set(ds[c].dims) <= set(shape_dims) and ds[c].dtype.kind in "iuf"]
+    colour_by = next((c for c in ("mu", "mu_k") if c in numeric), numeric[0] if numeric else None)
+    shade = ds[colour_by].broadcast_like(ds["W_excess"]).values.ravel() if colour_by else None
+    points = ax.scatter(ds["convexity_mean"].values.ravel(), ds["W_excess"].values.ravel(),
+                        c=shade, cmap="viridis", s=10, marker="o", edgecolors="none")
+    if colour_by:
         ax.figure.colorbar(points, ax=ax, label=label(ds[colour_by], colour_by))
     ax.axhline(0, color="0.4", lw=0.8)
     ax.axvline(0, color="0.4", lw=0.8)
@@ -269,13 +310,13 @@ def _traces(ds, ax_x, ax_v):
 
 
 def _pick_kind(ds) -> str:
-    dims = _sweep_dims(ds)
-    if dims == ["case"]:
-        return "convexity"
-    if len(dims) == 1:
-        return "lines"
-    if len(dims) >= 2:
+    grid = _axis_dims(ds)
+    if len(grid) >= 2:
         return "map"
+    if len(grid) == 1:
+        return "lines"
+    if _sweep_dims(ds):
+        return "convexity"
     return "traces" if "trace_t" in ds else "status"
 
 
@@ -289,9 +330,9 @@ def plot_dataset(ds, kind: str = "auto", where: str = "dataset"):
         raise ConfigError(where, "has no status variable: not a rampwork result file")
     dims = _sweep_dims(ds)
     kind = _pick_kind(ds) if kind == "auto" else kind
-    grid = [d for d in dims if d != "case"]
-    needs = {"lines": (len(grid) >= 1, "needs at least one sweep dimension (not case)"),
-             "map": (len(grid) >= 2, "needs at least two sweep dimensions (not case)"),
+    grid = _axis_dims(ds)
+    needs = {"lines": (len(grid) >= 1, "needs a numeric sweep dimension (not case)"),
+             "map": (len(grid) >= 2, "needs two numeric sweep dimensions (not case)"),
              "convexity": (bool(dims), "needs a sweep (one trajectory has one point)"),
              "traces": ("trace_t" in ds, "has no recorded trajectories (scene [record])")}
     ok, why = needs.get(kind, (True, ""))
@@ -351,6 +392,6 @@ def cmd_plot(args) -> int:
     dataset = io.open_dataset(args.dataset)
     fig = plot_dataset(dataset, args.kind, where=args.dataset)
     fig.savefig(output)
-    plt.close(fig)
+    pyplot().close(fig)
     print(f"wrote {output}")
     return 0
