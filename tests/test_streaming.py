@@ -195,6 +195,7 @@ def test_overwrite_rules(tmp_path):
     ({"chunk_size": 2.5}, "chunk_size"),
     ({"chunk_size": True}, "chunk_size"),
     ({"threads": 0}, "threads"),
+    ({"compression_level": 10}, "compression_level"),
     ({"scheduler": 17}, "scheduler"),
     ({"scheduler": "local", "threads": 1}, "threads"),
 ])

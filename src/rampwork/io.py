@@ -133,7 +133,7 @@ def _prepare(ds: xr.Dataset, complevel: int) -> tuple[xr.Dataset, dict]:
     return out, encoding
 
 
-def _check_level(compression_level) -> int:
+def check_compression_level(compression_level) -> int:
     if isinstance(compression_level, bool) or not isinstance(compression_level, (int, np.integer)) or not (
         0 <= compression_level <= 9
     ):
@@ -156,7 +156,7 @@ def define_variables(
     ``np.broadcast_to``; the caller writes them later, piece by piece).
     ``chunksizes`` replaces the chunk shape of the variables it names.
     Global attributes: :func:`set_attributes`."""
-    prepared, encoding = _prepare(ds, _check_level(compression_level))
+    prepared, encoding = _prepare(ds, check_compression_level(compression_level))
     for dim, size in prepared.sizes.items():
         if dim not in nc.dimensions:
             nc.createDimension(dim, size)
@@ -220,7 +220,7 @@ def write_netcdf(
     flattened to netCDF-legal types (see :func:`schema.netcdf_attrs`).
     Refuses to replace an existing file unless ``overwrite``. Returns ``path``.
     """
-    compression_level = _check_level(compression_level)
+    compression_level = check_compression_level(compression_level)
     path = check_writable(path, overwrite)
     prepared, encoding = _prepare(ds, compression_level)
     tmp = temp_path(path)

@@ -25,6 +25,7 @@ import hashlib
 import itertools
 import math
 import os
+import queue
 import threading
 import time
 from dataclasses import dataclass
@@ -125,8 +126,9 @@ class SweepToFile:
 
     def __init__(self, scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
                  chunk_size: int | None = None, threads: int | None = None, resume: bool = False,
-                 overwrite: bool = False, scheduler=None):
+                 overwrite: bool = False, scheduler=None, compression_level: int = 4):
         self.plan = runner.plan_run(scene, sweep)
+        self.compression_level = io.check_compression_level(compression_level)
         if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer))
                                        or chunk_size < 1):
             raise ConfigError("chunk_size", f"must be a positive integer, got {chunk_size!r}")
@@ -209,10 +211,10 @@ class SweepToFile:
             done = self._done_trajectories()
             if progress is not None:
                 progress(done, self.plan.size)
-            started = time.perf_counter()
             run_chunks = self._threaded if self.scheduler is None else self._distributed
-            chunks = run_chunks(pending, info)
-            for index, results in chunks:
+            chunks = run_chunks(pending, info)  # compiled, or connected: run time starts now
+            started = time.perf_counter()
+            for index, results in _one_ahead(chunks):
                 start, stop, where, shape = self.layout.piece(index)
                 for name, values in results.items():
                     nc[name][where] = values.reshape(shape)
@@ -239,7 +241,8 @@ class SweepToFile:
         nc = _open(self.partial, "w")
         try:
             chunks = {name: self.layout.chunksizes for name in layout.attrs} if layout.shape else {}
-            io.define_variables(nc, skeleton, deferred=tuple(layout.attrs), chunksizes=chunks)
+            io.define_variables(nc, skeleton, deferred=tuple(layout.attrs), chunksizes=chunks,
+                                compression_level=self.compression_level)
             attrs = runner.attributes(self.plan, 0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
             attrs.update({DIGEST_ATTR: self.digest, LAYOUT_ATTR: np.array([self.layout.axis, self.layout.rows]),
                           DONE_ATTR: np.packbits(self.done), RUN_TIME_ATTR: 0.0})
@@ -269,7 +272,7 @@ class SweepToFile:
                                   entry="rampwork.run_to_file")
         if self.plan.scene.record.enabled:
             traces, attrs["trace_time_s"] = info["traces"]()
-            io.define_variables(nc, traces)
+            io.define_variables(nc, traces, compression_level=self.compression_level)
         if "scheduler" in info:
             attrs["scheduler"] = info["scheduler"]
         io.set_attributes(nc, attrs)
@@ -283,18 +286,12 @@ class SweepToFile:
                      "traces": lambda: _traces(prepared)})
 
         def chunks():
-            buffers = runner.empty_results(self.plan, max((self._length(i) for i in pending), default=0))
             with runner.using_threads(self.threads):
                 for index in pending:
                     start, stop, _, _ = self.layout.piece(index)
-                    out = {name: array[:stop - start] for name, array in buffers.items()}
-                    yield index, runner.run_chunk(prepared, start, stop, self.threads, out=out)
+                    yield index, runner.run_chunk(prepared, start, stop, self.threads)
 
         return chunks()
-
-    def _length(self, index: int) -> int:
-        start, stop, _, _ = self.layout.piece(index)
-        return stop - start
 
     def _distributed(self, pending, info: dict):
         """The pending chunks' results as they arrive from the cluster, one
@@ -335,6 +332,49 @@ class SweepToFile:
                 yield index, results
 
         return chunks()
+
+
+def _one_ahead(items):
+    """Iterate ``items`` in a background thread, one item ahead: the next
+    chunk is computed while this one is compressed and written (the kernel
+    and the netCDF library both release the GIL). On exit, Ctrl-C included,
+    the background thread finishes the item it is computing and stops."""
+    ready = queue.Queue(maxsize=1)
+    stop = threading.Event()
+
+    def put(item) -> bool:
+        while not stop.is_set():
+            try:
+                ready.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                pass
+        return False
+
+    def produce():
+        try:
+            for item in items:
+                if not put((True, item)):
+                    return
+            put((False, None))
+        except BaseException as error:  # noqa: BLE001 - handed to the consumer
+            put((False, error))
+        finally:
+            items.close()
+
+    worker = threading.Thread(target=produce, name="rampwork-chunks", daemon=True)
+    worker.start()
+    try:
+        while True:
+            more, item = ready.get()
+            if not more:
+                if item is not None:
+                    raise item
+                return
+            yield item
+    finally:
+        stop.set()
+        worker.join()
 
 
 def schema_dtype(name: str) -> np.dtype:
@@ -428,7 +468,7 @@ def _traces_task(text: str):
 # ------------------------------------------------------------------------------
 def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
                 chunk_size: int | None = None, threads: int | None = None, resume: bool = False,
-                overwrite: bool = False, progress=None, scheduler=None) -> Path:
+                overwrite: bool = False, progress=None, scheduler=None, compression_level: int = 4) -> Path:
     """Run ``scene`` over ``sweep`` and write the results to the netCDF file
     ``path`` chunk by chunk, in bounded memory; the file reads back
     (:func:`rampwork.open_dataset`) equal, value for value, to
@@ -445,8 +485,11 @@ def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
     ``scheduler``: run the chunks on a Dask cluster, one task per chunk: a
     scheduler address, ``"local"`` (start a local cluster, one worker per
     core) or a ``distributed.Client``; ``threads`` is then the workers'.
+    ``compression_level``: zlib level 0..9 as in :func:`rampwork.write_netcdf`
+    (0: none; compressing costs about as much as a cheap trajectory, see
+    benchmarks/scaling.py; a resumed run keeps its file's).
     Returns ``path``.
     """
     job = SweepToFile(scene, sweep, path, chunk_size=chunk_size, threads=threads, resume=resume,
-                      overwrite=overwrite, scheduler=scheduler)
+                      overwrite=overwrite, scheduler=scheduler, compression_level=compression_level)
     return job.run(progress)
