@@ -208,12 +208,12 @@ class SweepToFile:
         info = {}
         try:
             pending = [int(i) for i in np.flatnonzero(~self.done)]
-            done = self._done_trajectories()
-            if progress is not None:
-                progress(done, self.plan.size)
             run_chunks = self._threaded if self.scheduler is None else self._distributed
             chunks = run_chunks(pending, info)  # compiled, or connected: run time starts now
             started = time.perf_counter()
+            done = self._done_trajectories()
+            if progress is not None:
+                progress(done, self.plan.size)
             for index, results in _one_ahead(chunks):
                 start, stop, where, shape = self.layout.piece(index)
                 for name, values in results.items():
