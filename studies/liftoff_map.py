@@ -179,7 +179,7 @@ def figure(ds):
 def main(argv=None) -> int:
     args = _study.parser(__doc__).parse_args(argv)
     started = time.perf_counter()
-    n_v0, n_curv = _study.scale(args, (6, 5), (40, 40), (96, 96))
+    n_v0, n_curv = _study.scale(args, (8, 5), (40, 40), (96, 96))
     print(f"{STUDY}: {n_curv + 1} curvatures in [{CURVATURE[0]:g}, {CURVATURE[1]:g}] 1/m x {n_v0} "
           f"start speeds in (0, {V0_MAX:g}] m/s, all recorded, mu = {MU:g}, RK4 dt = 1 ms")
     ds = run(n_v0, n_curv)
