@@ -337,3 +337,87 @@ def test_dask_cluster_writes_the_same_file_as_threads(tmp_path):
     assert_same_file(rw.open_dataset(threaded), on_dask)
     assert on_dask.attrs["scheduler"].startswith("inproc://")
     assert seen[0] == 0 and seen[-1] == GRID.size and len(seen) == 1 + 20  # before and after each chunk
+
+
+# ------------------------------------------------------------------------------
+# the command line: progress, Ctrl-C, resume, a local cluster
+# ------------------------------------------------------------------------------
+def _cli_scene(tmp_path):
+    from rampwork import cli
+
+    path = tmp_path / "straight.toml"
+    path.write_text(cli.example_text("straight"), encoding="utf-8")
+    return path
+
+
+def test_cli_progress_bar_on_request(tmp_path, capsys):
+    from rampwork.cli import main
+
+    scene = _cli_scene(tmp_path)
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.nc"), "--progress", "--chunk-size", "4"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    # not a terminal: whole lines, the first before any chunk, the last at 100 %
+    assert err[0].startswith("[") and " 0%" in err[0] and "trajectories" in err[0]
+    assert err[-1].startswith("[" + "#" * 24 + "] 100%") and "/s" in err[-1] and "0:00 left" in err[-1]
+    assert main(["run", str(scene), "-o", str(tmp_path / "quiet.nc"), "--chunk-size", "4"]) == 0
+    assert capsys.readouterr().err == ""  # not a terminal, not asked: no progress
+
+
+def test_cli_ctrl_c_keeps_finished_chunks_and_resume_finishes(tmp_path, capsys, monkeypatch):
+    from rampwork.cli import main
+
+    scene = _cli_scene(tmp_path)
+    output = tmp_path / "out.nc"
+    calls = []
+    run_chunk = runner.run_chunk
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return run_chunk(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "run_chunk", interrupted)
+    assert main(["run", str(scene), "-o", str(output), "--chunk-size", "4"]) == 130
+    err = capsys.readouterr().err
+    assert "2 of 3 chunks are saved" in err and "--resume" in err and err.strip().endswith("interrupted")
+    assert not output.exists() and partial_path(output).exists()
+
+    assert main(["run", str(scene), "-o", str(output), "--chunk-size", "4"]) == 2  # no silent restart
+    assert "--resume" in capsys.readouterr().err
+    monkeypatch.setattr(runner, "run_chunk", run_chunk)
+    assert main(["run", str(scene), "-o", str(output), "--resume"]) == 0
+    out = capsys.readouterr().out
+    assert "resuming     2 of 3 chunks done" in out and "trajectories  12" in out
+    from rampwork.scenefile import load_scene
+
+    assert_same_data(rw.simulate(*load_scene(scene)), rw.open_dataset(output))
+
+
+def test_cli_resume_of_another_scene_is_refused(tmp_path, capsys, monkeypatch):
+    from rampwork.cli import main
+
+    scene = _cli_scene(tmp_path)
+    output = tmp_path / "out.nc"
+    monkeypatch.setattr(runner, "run_chunk", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
+    assert main(["run", str(scene), "-o", str(output), "--chunk-size", "4"]) == 130
+    capsys.readouterr()
+    assert main(["run", str(scene), "-o", str(output), "--resume", "--set", "t_max=7"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"rampwork: error: {partial_path(output)}: was started by a different scene")
+    assert "\n" not in err
+
+
+@pytest.mark.slow
+def test_cli_local_dask_cluster(tmp_path):
+    pytest.importorskip("distributed")
+    scene = _cli_scene(tmp_path)
+    output = tmp_path / "dask.nc"
+    run = subprocess.run(_rampwork("run", scene, "-o", output, "--scheduler", "local", "--chunk-size", 5),
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    from rampwork.scenefile import load_scene
+
+    on_dask = rw.open_dataset(output)
+    assert on_dask.attrs["scheduler"].startswith("tcp://127.0.0.1")
+    assert_same_data(rw.simulate(*load_scene(scene)), on_dask)

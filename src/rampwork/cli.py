@@ -175,6 +175,7 @@ class _Progress:
         self.interval = 0.2 if self.tty else 5.0
         self.first = None  # (time, done) at the first call: the rate counts this run's work only
         self.last = -float("inf")
+        self.longest = 0
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
@@ -191,8 +192,9 @@ class _Progress:
         line = (f"[{'#' * filled}{'-' * (self.WIDTH - filled)}] {100 * share:3.0f}%  "
                 f"{_si(done)}/{_si(total)} trajectories  {_si(rate)}/s  "
                 f"{_clock(now - started)} elapsed, {left} left")
-        if self.tty:
-            print(f"\r{line}", end="\n" if done >= total else "", file=self.stream, flush=True)
+        if self.tty:  # padded over a longer previous line
+            self.longest = max(self.longest, len(line))
+            print(f"\r{line:<{self.longest}}", end="\n" if done >= total else "", file=self.stream, flush=True)
         else:
             print(line, file=self.stream, flush=True)
 
