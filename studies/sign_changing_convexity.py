@@ -143,6 +143,7 @@ def figure(ds, n):
 
     ax = axes[1, 1]
     mus = [m for m in ds["mu"].values if m > 0]
+    mus = [mus[i] for i in np.unique(np.linspace(0, len(mus) - 1, 4).round().astype(int))]
     for k, mu in enumerate(mus):
         roots = [equal_cost_phases(ds["W_excess"].sel(mu=mu, amplitude=a).values, phase)
                  for a in amplitudes]
