@@ -1,5 +1,5 @@
-"""The adaptive Dormand-Prince 5(4) integrator (``dopri5``), and the fixed-step
-methods' orders through events.
+"""The adaptive pairs, Dormand-Prince 5(4) (``dopri5``) and 8(5,3)
+(``dop853``), and the fixed-step methods' orders through events.
 
 As in ``test_physics.py``, nothing here compares the engine with its own
 earlier output: expected values are closed forms, conservation laws, fitted
@@ -16,7 +16,9 @@ that scale.
 Kernel variants compiled here (numba caches them on disk; a fresh compile
 costs 10-50 s each): quadratic x {euler, semi_implicit_euler, rk4, dopri5
 (convex, and with contact checks for mixed curvature)}, dopri5 x {straight,
-circular_bowl, circular_dome, sine}, and straight rk4.  The default part runs
+circular_bowl, circular_dome, sine}, dop853 x {quadratic (both), straight,
+circular_bowl, circular_dome, sine} (dop853 compiles in 30-60 s), and
+straight rk4.  The default part runs
 in under 10 s once they are cached; the slow part (``-m slow``: 25 random
 batches per family) in about 30 s more.
 """
@@ -52,6 +54,10 @@ def val(ds, name):
 
 def dopri5(rtol, **kwargs):
     return rw.Integrator("dopri5", rtol=rtol, **kwargs)
+
+
+#: the adaptive pairs; tests parametrised over PAIRS hold both to the same bounds
+PAIRS = ("dopri5", "dop853")
 
 
 def si_scale(value):
@@ -141,18 +147,21 @@ def test_fixed_step_order_through_reversals_and_a_stick(method, order, dts, quad
 # ------------------------------------------------------------------------------
 # 2. dopri5 against the reference: tolerance proportionality, random scenes
 # ------------------------------------------------------------------------------
-def test_dopri5_error_is_proportional_to_rtol(quad_bowl_references):
-    """With the error controlled per step and the 5th-order solution carried on,
-    the global error of Dormand-Prince scales like rtol (the step like
-    rtol^(1/5), the 5th-order error like h^5).  Fitted slope of the error
-    against rtol within 0.3 of 1, every error within 10 rtol, and the steps
-    growing as the tolerance tightens."""
+@pytest.mark.parametrize("method", PAIRS)
+def test_error_is_proportional_to_rtol(method, quad_bowl_references):
+    """With the error controlled per step and the higher-order solution carried
+    on, the global error scales like rtol (for dopri5 the step like
+    rtol^(1/5), the 5th-order error like h^5; for dop853 the combined
+    estimate behaves like h^8).  Fitted slope of the error against rtol
+    within 0.3 of 1, every error within 10 rtol, and the steps growing as
+    the tolerance tightens.  (dop853 stops a decade earlier: at 1e-11 its
+    error, 8e-14 J, is below what the reference resolves.)"""
     refs, wobble = quad_bowl_references
-    rtols = [1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
+    rtols = [10.0**-k for k in (range(5, 12) if method == "dopri5" else range(4, 11))]
     errors = {(k, q): [] for k in range(len(QUAD_MUS)) for q in QUANTITIES}
     steps = []
     for rtol in rtols:
-        ds = run(quad_bowl_scene(dopri5(rtol)), rw.Sweep.cases(mu=list(QUAD_MUS)))
+        ds = run(quad_bowl_scene(rw.Integrator(method, rtol=rtol)), rw.Sweep.cases(mu=list(QUAD_MUS)))
         steps.append(ds.steps.values)
         for k, ref in enumerate(refs):
             got = ds.isel(case=k)
@@ -356,7 +365,7 @@ def _invariants(got, domain, t_max):
     return bad
 
 
-def check_random_batch(family, cases, reference):
+def check_random_batch(family, cases, reference, method="dopri5"):
     """One simulate call per tolerance over the whole batch; every trajectory
     against the reference (W_friction, x_end, t_end within 10 rtol kappa of
     their SI scale, the same status and reversals unless the reference is at
@@ -365,7 +374,8 @@ def check_random_batch(family, cases, reference):
     (lo, hi), params = FAMILY_SPACE[family]
     columns = {name: [case[name] for case in cases] for name in ("x0", "v0", "mu_k", *params)}
     columns["mu_s"] = [case["mu_k"] + case["static_extra"] for case in cases]
-    results = {rtol: run(scene.replace(integrator=dopri5(rtol)), rw.Sweep.cases(**columns))
+    results = {rtol: run(scene.replace(integrator=rw.Integrator(method, rtol=rtol)),
+                         rw.Sweep.cases(**columns))
                for rtol in RANDOM_RTOLS}
     failures, skipped, ratios = [], [], {}
     for i, case in enumerate(cases):
@@ -456,6 +466,17 @@ def test_dopri5_random_scenes_within_10x_rtol_many(family, data, reference):
                                                   max_size=BATCH)), reference)
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("family", list(FAMILY_SPACE))
+@settings(max_examples=10, **RANDOM_SETTINGS)
+@given(data=st.data())
+def test_dop853_random_scenes_within_10x_rtol(family, data, reference):
+    """dop853 held to the same bounds on 10 batches (60 trajectories) per
+    family (slow: one 30-60 s compilation per family)."""
+    check_random_batch(family, data.draw(st.lists(case_strategy(family), min_size=BATCH,
+                                                  max_size=BATCH)), reference, "dop853")
+
+
 # ------------------------------------------------------------------------------
 # 3. event times and positions to the tolerance
 # ------------------------------------------------------------------------------
@@ -463,7 +484,8 @@ EVENT_RTOLS = (1e-6, 1e-8, 1e-10)
 BOWL = rw.Ramp.create("circular_bowl", radius=1.0, domain=(-0.9, 0.9))
 
 
-def test_stick_on_a_bowl_to_the_tolerance(reference):
+@pytest.mark.parametrize("method", PAIRS)
+def test_stick_on_a_bowl_to_the_tolerance(method, reference):
     """A block released on the circular bowl reverses twice and sticks: the
     stick time and place within 10 rtol of the reference, v_end exactly 0,
     held by static friction where it stopped."""
@@ -472,7 +494,7 @@ def test_stick_on_a_bowl_to_the_tolerance(reference):
     assert ref["status"] == STUCK and ref["n_reversals"] == 2
     assert min(abs(e["margin"]) for e in ref["events"] if "margin" in e) > 0.05
     for rtol in EVENT_RTOLS:
-        ds = run(scene.replace(integrator=dopri5(rtol)))
+        ds = run(scene.replace(integrator=rw.Integrator(method, rtol=rtol)))
         assert val(ds, "status") == STUCK and val(ds, "n_reversals") == 2
         assert val(ds, "v_end") == 0.0
         for q in ("t_end", "x_end", "W_friction", "W_path"):
@@ -480,7 +502,8 @@ def test_stick_on_a_bowl_to_the_tolerance(reference):
         assert abs(BOWL.evaluate(val(ds, "x_end"))[1]) <= 0.2
 
 
-def test_exit_times_to_the_tolerance(reference):
+@pytest.mark.parametrize("method", PAIRS)
+def test_exit_times_to_the_tolerance(method, reference):
     """Exits: on a straight ramp against the closed form (constant
     acceleration: x is quadratic in t, which Dormand-Prince and its dense
     output reproduce to rounding), and on the bowl against the reference."""
@@ -494,20 +517,24 @@ def test_exit_times_to_the_tolerance(reference):
     ref = reference.reference_trajectory(launched, rtol=1e-13, atol=1e-13)
     assert ref["status"] == EXITED and ref["n_reversals"] == 0 and ref["v_end"] > 0.5  # no graze
     for rtol in EVENT_RTOLS:
-        ds = run(straight.replace(integrator=dopri5(rtol)), rw.Sweep.cases(x0=x0s, v0=v0s))
+        pair = rw.Integrator(method, rtol=rtol)
+        ds = run(straight.replace(integrator=pair), rw.Sweep.cases(x0=x0s, v0=v0s))
         assert np.all(ds.status.values == EXITED) and np.all(ds.x_end.values == hi)
         np.testing.assert_allclose(ds.t_end.values, exact_t, rtol=1e-12)
         np.testing.assert_allclose(ds.v_end.values, np.array(v0s) + a * np.array(exact_t), rtol=1e-12)
         np.testing.assert_allclose(ds.W_friction.values, mu * G * (hi - np.array(x0s)), rtol=1e-12)
-        bowl = run(launched.replace(integrator=dopri5(rtol)))
+        bowl = run(launched.replace(integrator=pair))
         assert val(bowl, "status") == EXITED and val(bowl, "x_end") == BOWL.domain[1]
         for q in ("t_end", "v_end", "W_friction"):
             assert abs(val(bowl, q) - ref[q]) <= 10 * rtol * si_scale(ref[q]), (rtol, q, val(bowl, q), ref[q])
 
 
 @pytest.mark.parametrize("integrator", [dopri5(1e-4), dopri5(1e-8), dopri5(1e-12),
+                                        rw.Integrator("dop853", rtol=1e-4),
+                                        rw.Integrator("dop853", rtol=1e-12),
                                         rw.Integrator("rk4", 0.2)],
-                         ids=["dopri5-1e-4", "dopri5-1e-8", "dopri5-1e-12", "rk4-dt0.2"])
+                         ids=["dopri5-1e-4", "dopri5-1e-8", "dopri5-1e-12", "dop853-1e-4",
+                              "dop853-1e-12", "rk4-dt0.2"])
 @pytest.mark.parametrize("overshoot", [1e-3, 1e-1])
 def test_exit_is_found_when_the_block_would_stop_beyond_the_end(integrator, overshoot):
     """Launched up a straight ramp fast enough to stop ``overshoot`` metres
@@ -549,7 +576,8 @@ def dome_lift_off_x(x0, v0, radius=1.0, g=G):
     return math.copysign(radius * math.sqrt(1.0 - cos_l**2), v0 if v0 != 0 else x0)
 
 
-def test_lift_off_from_a_dome_to_the_tolerance(reference):
+@pytest.mark.parametrize("method", PAIRS)
+def test_lift_off_from_a_dome_to_the_tolerance(method, reference):
     """Frictionless: the lift-off point against the closed form, down to the
     limit cos(theta) = 2/3 from the top; with friction against the reference."""
     x0 = [0.3, -0.2, 1e-2, 1e-3]
@@ -560,18 +588,20 @@ def test_lift_off_from_a_dome_to_the_tolerance(reference):
     ref = reference.reference_trajectory(rough, rtol=1e-13, atol=1e-13)
     assert ref["status"] == LIFTED_OFF
     for rtol in EVENT_RTOLS:
-        ds = run(rw.Scene(ramp=DOME, x0=0.0, integrator=dopri5(rtol)), rw.Sweep.cases(x0=x0, v0=v0))
+        pair = rw.Integrator(method, rtol=rtol)
+        ds = run(rw.Scene(ramp=DOME, x0=0.0, integrator=pair), rw.Sweep.cases(x0=x0, v0=v0))
         assert np.all(ds.status.values == LIFTED_OFF)
         assert np.array_equal(ds.x_lift_off.values, ds.x_end.values)
         assert np.all(np.abs(ds.x_lift_off.values - exact) <= 10 * rtol), (rtol, ds.x_lift_off.values - exact)
         assert np.all(ds.W_friction.values == 0.0)
-        got = run(rough.replace(integrator=dopri5(rtol)))
+        got = run(rough.replace(integrator=pair))
         assert val(got, "status") == LIFTED_OFF
         for q in ("x_lift_off", "t_end", "W_friction"):
             assert abs(val(got, q) - ref[q]) <= 10 * rtol * si_scale(ref[q]), (rtol, q, val(got, q), ref[q])
 
 
-def test_lift_off_is_found_when_the_normal_force_dips_inside_one_step(reference):
+@pytest.mark.parametrize("method", PAIRS)
+def test_lift_off_is_found_when_the_normal_force_dips_inside_one_step(method, reference):
     """A block sliding down a wavy ramp passes a crest where n = g + v^2 f''
     drops below 0 for about 22 ms (to -0.018 m/s^2) and would come back: it
     lifts off there, at x = -0.139 (the reference, and dopri5 at 1e-8).  At
@@ -598,7 +628,7 @@ def test_lift_off_is_found_when_the_normal_force_dips_inside_one_step(reference)
     assert not _knife_edge(reference, scene, dict(x0=scene.x0, v0=scene.v0, mu_k=0.20989624352131858,
                                                   mu_s=0.20989624352131858, ramp=ramp), ref, 1e-6)
     for rtol in (1e-6, 1e-8):
-        ds = run(scene.replace(integrator=dopri5(rtol)))
+        ds = run(scene.replace(integrator=rw.Integrator(method, rtol=rtol)))
         got = {k: val(ds, k) for k in ("status", "x_lift_off", "t_end", "W_friction")}
         assert got["status"] == LIFTED_OFF, (rtol, got)
         assert abs(got["x_lift_off"] - ref["x_lift_off"]) <= 10 * rtol, (rtol, got, ref["x_lift_off"])
@@ -707,13 +737,15 @@ def _assert_identical(a, b, what):
         assert np.array_equal(a[name].values, b[name].values, equal_nan=True), (what, name)
 
 
-def test_dopri5_bitwise_identical_whatever_threads_order_and_chunks(monkeypatch):
+@pytest.mark.parametrize("method", PAIRS)
+def test_pairs_bitwise_identical_whatever_threads_order_and_chunks(method, monkeypatch):
     """Each trajectory carries its own step size, so nothing couples lanes:
     the same trajectory gives the same bits alone or in a sweep, as a grid or
     as cases in another order, on 1 or 2 threads, in one chunk or many."""
     scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=3.0,
                                          domain=(-2.0, 2.0)),
-                     friction=rw.Friction(0.1), x0=0.0, t_max=5.0, integrator=dopri5(1e-7))
+                     friction=rw.Friction(0.1), x0=0.0, t_max=5.0,
+                     integrator=rw.Integrator(method, rtol=1e-7))
     x0 = np.linspace(-1.8, 1.8, 13)
     v0 = np.array([-2.0, -0.5, 0.0, 0.7, 2.5])
     mu = np.array([0.0, 0.05, 0.2, 0.35])

@@ -55,8 +55,9 @@ class Integrator:
     """How trajectories are integrated.
 
     Fixed-step methods (``euler``, ``semi_implicit_euler``, ``rk4``) take steps
-    of ``dt`` (s, default 1e-3).  The adaptive pair ``dopri5`` (Dormand-Prince
-    5(4), PI step-size control per trajectory) keeps the local error of x, v and
+    of ``dt`` (s, default 1e-3).  The adaptive pairs ``dopri5`` (Dormand-Prince
+    5(4)) and ``dop853`` (Dormand-Prince 8(5,3), for tight tolerances), with
+    PI step-size control per trajectory, keep the local error of x, v and
     the work integrals below ``atol + rtol * |value|`` (``rtol`` default 1e-6,
     ``atol`` default ``rtol``: SI units, so for metre-scale ramps both read as
     relative); ``dt`` is then its first step (default: estimated per

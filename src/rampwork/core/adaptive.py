@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from . import status as st
-from .control import ERROR_FLOOR, ERROR_TINY, FACTOR_MIN, log2_approx, step_factor
+from .control import ERROR_FLOOR, ERROR_TINY, FACTOR_MIN, PI_DOPRI5, log2_approx, step_factor
 from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
 from .physics import acceleration, normal_term
 
@@ -44,6 +44,7 @@ N_DIP_SAMPLES = 16
 step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 LANES = 64
+PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
 CHAINS = 2
 (error_norm2, apply_event, rebase, finish_lane, dense_value,
  locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 11
@@ -52,8 +53,7 @@ CHAINS = 2
 #: bound: large enough that the step shrinks by the controller's largest factor
 LOG2_ERROR_BAD = 1.0e3
 LOG2_ERROR_FLOOR = math.log2(ERROR_FLOOR)
-#: the error norm's denominator is a product of eight scales; with atol >=
-#: 1e-20 it stays far from underflow
+#: an error norm beyond this is treated as not finite
 ERROR_NORM_BAD = 1.0e300
 
 
@@ -61,24 +61,6 @@ def _contact_holds(sn, n_end, n_low, n_high):
     """The contact's sign ``sn`` held at the step's end and at every stage
     (n_low, n_high: the stages' range of the normal term)."""
     return (sn * n_end > 0.0) & ((n_low > 0.0) if sn > 0.0 else (n_high < 0.0))
-
-
-def _error_norm2(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k, rtol, atol):
-    """Mean of the squared scaled errors of (x, v, friction work, curvature
-    integral), each scaled by atol + rtol * max(|start|, |end|).
-
-    Written with one division (the four scales' products in a common
-    denominator): divisions are what bound the lane loop."""
-    sx = atol + rtol * max(abs(x), abs(x1))
-    sv = atol + rtol * max(abs(v), abs(v1))
-    sw = atol + rtol * max(abs(w), abs(w1))
-    sk = atol + rtol * max(abs(k), abs(k1))
-    ex, ev, ew, ek = err_x * sv, err_v * sx, err_w * sk, err_k * sw
-    xv = sx * sv
-    wk = sw * sk
-    xv2 = xv * xv
-    wk2 = wk * wk
-    return 0.25 * ((ex * ex + ev * ev) * wk2 + (ew * ew + ek * ek) * xv2) / (xv2 * wk2)
 
 
 # ------------------------------------------------------------------------------
@@ -127,12 +109,12 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     w = lanes[W * LANES + i]
     k = lanes[K * LANES + i]
     frozen = lanes[PENDING * LANES + i] > 0.0
-    x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high = step(
+    x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high, fx, fv, fw, fk = step(
         x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
         lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
     w1 = w + dw
     k1 = k + dk
-    err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, rtol, atol)
+    err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, fx, fv, fw, fk, rtol, atol)
     bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
     accepted = bounded & (err2 <= 1.0)
     event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
@@ -153,7 +135,7 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     log2_error = (0.5 * log2_approx(err2 if err2 > ERROR_TINY else ERROR_TINY)
                   if bounded else LOG2_ERROR_BAD)
     factor = step_factor(log2_error, lanes[LERR * LANES + i], accepted,
-                         lanes[REJ * LANES + i] > 0.0)
+                         lanes[REJ * LANES + i] > 0.0, PI_ALPHA, PI_BETA)
     factor = min(factor, CONTACT_SHRINK) if rough else factor
     h_new = min(h * factor, h_max)
     lanes[X * LANES + i] = x1 if commit else x
@@ -217,13 +199,6 @@ def _start_adaptive(lanes, i, settings, shared):
     lanes[H * LANES + i] = min(100.0 * h0, h1, h_max)
 
 
-def _dense_point(dense, h, theta, offset):
-    """Increment over [0, theta] of the dense output's component at ``offset``
-    (0: x, 4: v, 8: friction work, 12: curvature integral)."""
-    return h * theta * (dense[offset] + theta * (dense[offset + 1] + theta * (
-        dense[offset + 2] + theta * dense[offset + 3])))
-
-
 def _dense_value(kind, lanes, i, dense, h, theta, settings, shared):
     """Event function ``kind`` on the dense output at theta in [0, 1] of a step
     of size h from lane i's state."""
@@ -232,7 +207,7 @@ def _dense_value(kind, lanes, i, dense, h, theta, settings, shared):
         return settings[SET_XHI] - x
     if kind == EV_EXIT_LO:
         return x - settings[SET_XLO]
-    v = lanes[V * LANES + i] + dense_point(dense, h, theta, 4)
+    v = lanes[V * LANES + i] + dense_point(dense, h, theta, 1)
     if kind == EV_REVERSAL:
         return lanes[D * LANES + i] * v
     _, fpp = ramp_slope_curvature(x, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
@@ -353,8 +328,8 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             # shows no lift-off: the step stands
             lanes[X * LANES + i] = x1
             lanes[V * LANES + i] = v1
-            lanes[W * LANES + i] += dense_point(dense, h_end, 1.0, 8)
-            lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 12)
+            lanes[W * LANES + i] += dense_point(dense, h_end, 1.0, 2)
+            lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
             lanes[STEPS * LANES + i] += 1.0
             lanes[EEST * LANES + i] += abs(err_work)
             lanes[T * LANES + i] = t_now + h_end
@@ -364,9 +339,9 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         best_kind = np.int64(EV_TIMEOUT)  # the step reaches t_max with nothing before
     if best_theta > 0.0:
         lanes[X * LANES + i] += dense_point(dense, h_end, best_theta, 0)
-        lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 4)
-        lanes[W * LANES + i] += dense_point(dense, h_end, best_theta, 8)
-        lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 12)
+        lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 1)
+        lanes[W * LANES + i] += dense_point(dense, h_end, best_theta, 2)
+        lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
         lanes[STEPS * LANES + i] += 1.0
         lanes[EEST * LANES + i] += abs(err_work)  # the whole step's: an upper bound
     t_event = t_now + best_theta * h_end

@@ -16,12 +16,13 @@ _EXPONENT_ONE = 1023 << 52
 _L1, _L2, _L3, _L4 = 1.43863745, -0.67773914, 0.32187145, -0.0828558
 _X1, _X2, _X3, _X4 = 0.69301748, 0.24144886, 0.05194755, 0.0135819
 
-#: PI controller (Hairer, Norsett & Wanner, "Solving ODEs I", dopri5's
-#: defaults): h_new = h * SAFETY * err^-ALPHA * err_previous^BETA, the factor
-#: kept within [FACTOR_MIN, FACTOR_MAX]; after a rejection the step does not grow.
-ORDER_ERROR = 5.0  # the embedded estimate is O(h^5)
-BETA = 0.04
-ALPHA = 1.0 / ORDER_ERROR - 0.75 * BETA
+#: PI controller (Hairer, Norsett & Wanner, "Solving ODEs I"):
+#: h_new = h * SAFETY * err^-alpha * err_previous^beta, the factor kept within
+#: [FACTOR_MIN, FACTOR_MAX]; after a rejection the step does not grow.
+#: (alpha, beta) per pair, as in dopri5.f and dop853.f: the error estimate is
+#: O(h^5) for Dormand-Prince 5(4) and behaves as O(h^8) for DOP853's combined one.
+PI_DOPRI5 = (1.0 / 5.0 - 0.75 * 0.04, 0.04)
+PI_DOP853 = (1.0 / 8.0, 0.0)
 SAFETY = 0.9
 FACTOR_MIN = 0.2
 FACTOR_MAX = 10.0
@@ -52,14 +53,62 @@ def exp2_approx(y):
 
 
 @jit
-def step_factor(log2_error, log2_error_previous, accepted, rejected_before):
+def step_factor(log2_error, log2_error_previous, accepted, rejected_before, alpha, beta):
     """The factor for the next step size from the error norm's log2 (that of
     the last accepted step for the PI term).  ``accepted``: this step passed;
-    ``rejected_before``: the previous attempt failed (then no growth)."""
+    ``rejected_before``: the previous attempt failed (then no growth);
+    ``alpha``, ``beta``: the pair's PI gains (``PI_DOPRI5``, ``PI_DOP853``)."""
     if accepted:
-        factor = SAFETY * exp2_approx(BETA * log2_error_previous - ALPHA * log2_error)
+        factor = SAFETY * exp2_approx(beta * log2_error_previous - alpha * log2_error)
         upper = 1.0 if rejected_before else FACTOR_MAX
     else:
-        factor = SAFETY * exp2_approx(-ALPHA * log2_error)
+        factor = SAFETY * exp2_approx(-alpha * log2_error)
         upper = 1.0
     return min(max(factor, FACTOR_MIN), upper)
+
+
+# ------------------------------------------------------------------------------
+# error norms of the pairs' estimates
+# ------------------------------------------------------------------------------
+# The norm is the RMS over (x, v, friction work, curvature integral) of each
+# estimate scaled by atol + rtol * max(|start|, |end|).  The four scales'
+# products form a common denominator, so that the norm costs one division
+# (divisions are what bound the lane loop); that product of eight scales stays
+# far from underflow for atol >= 1e-20.
+
+@jit
+def _scaled_squares(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k, rtol, atol):
+    """(numerator, denominator) with sum_c (err_c / scale_c)^2 = numerator / denominator."""
+    sx = atol + rtol * max(abs(x), abs(x1))
+    sv = atol + rtol * max(abs(v), abs(v1))
+    sw = atol + rtol * max(abs(w), abs(w1))
+    sk = atol + rtol * max(abs(k), abs(k1))
+    ex, ev, ew, ek = err_x * sv, err_v * sx, err_w * sk, err_k * sw
+    xv = sx * sv
+    wk = sw * sk
+    xv2 = xv * xv
+    wk2 = wk * wk
+    return (ex * ex + ev * ev) * wk2 + (ew * ew + ek * ek) * xv2, xv2 * wk2
+
+
+@jit
+def error_norm2(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k,
+                err3_x, err3_v, err3_w, err3_k, rtol, atol):
+    """The squared RMS norm of one embedded estimate (Dormand-Prince 5(4);
+    the err3 arguments are not used)."""
+    numerator, denominator = _scaled_squares(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w,
+                                             err_k, rtol, atol)
+    return 0.25 * numerator / denominator
+
+
+@jit
+def error_norm2_two_estimates(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k,
+                              err3_x, err3_v, err3_w, err3_k, rtol, atol):
+    """DOP853's combined norm squared, err5^2 * err5^2 / (err5^2 + 0.01 err3^2),
+    from its fifth- and third-order estimates (dop853.f; 0 where both vanish)."""
+    num5, denominator = _scaled_squares(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w,
+                                        err_k, rtol, atol)
+    num3, _ = _scaled_squares(x, v, w, k, x1, v1, w1, k1, err3_x, err3_v, err3_w, err3_k,
+                              rtol, atol)
+    ratio = num5 / (num5 + 0.01 * num3) if num5 > 0.0 else 0.0
+    return 0.25 * num5 / denominator * ratio

@@ -17,6 +17,10 @@ step, or re-evaluated where that is cheaper).  The global
 ``specialise``.
 """
 
+from typing import Callable, NamedTuple
+
+from . import dop853
+from .control import PI_DOP853, PI_DOPRI5, error_norm2, error_norm2_two_estimates
 from .jit import fma, jit
 from .physics import acceleration, normal_term
 
@@ -148,12 +152,14 @@ def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     carried from the previous step (FSAL).  Returns
 
         (x_new, v_new, friction_work, curvature_integral,
-         a_new, fp_new, fpp_new, err_x, err_v, err_work, err_curvature, n_low, n_high)
+         a_new, fp_new, fpp_new, err_x, err_v, err_work, err_curvature, n_low, n_high,
+         err3_x, err3_v, err3_work, err3_curvature)
 
     the integrals' increments as in the fixed-step methods (5th order), the
     acceleration and f', f'' at the new state (the next step's first stage),
-    the embedded error estimate of each of the four components and the range
-    of the normal term over the stages."""
+    the embedded error estimate of each of the four components, the range
+    of the normal term over the stages, and a second (lower-order) error
+    estimate where the pair has one (DOP853; zeros here)."""
     (x7, v3, v4, v5, v6, v7, a3, a4, a5, a6, a7, n1, n3, n4, n5, n6, n7,
      fpp3, fpp4, fpp5, fpp6, fpp7, fp7, n_low, n_high) = _dopri5_stages(
         x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared)
@@ -168,7 +174,7 @@ def dopri5_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     err_work = qh * _error6(w1, w3, w4, w5, w6, w7)
     err_curvature = dh * _error6(k1, k3, k4, k5, k6, k7)
     return (x7, v7, work, curvature, a7, fp7, fpp7, err_x, err_v, err_work, err_curvature,
-            n_low, n_high)
+            n_low, n_high, 0.0, 0.0, 0.0, 0.0)
 
 
 def dopri5_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
@@ -217,7 +223,30 @@ def _error6(k1, k3, k4, k5, k6, k7):
     return fma(E7, k7, fma(E6, k6, fma(E5, k5, fma(E4, k4, fma(E3, k3, E1 * k1)))))
 
 
-#: adaptive method name -> (step template, order, dense-output template)
+def dopri5_dense_point(dense, h, theta, component):
+    """Increment over [0, theta] of component 0 (x), 1 (v), 2 (friction work)
+    or 3 (curvature integral) of the dense output."""
+    o = 4 * component
+    return h * theta * (dense[o] + theta * (dense[o + 1] + theta * (
+        dense[o + 2] + theta * dense[o + 3])))
+
+
+class AdaptivePair(NamedTuple):
+    """An embedded pair: its templates, bound per scene by ``kernel.build_kernel``."""
+    step: Callable
+    order: int
+    dense: Callable  # the step's dense output, for events
+    dense_point: Callable  # evaluates ``dense``
+    error_norm2: Callable  # squared error norm from the step's estimates
+    pi_gains: tuple  # (alpha, beta) of the step-size controller
+    helpers: tuple  # (global name, template) pairs the templates call
+
+
+#: adaptive method name -> its pair
 ADAPTIVE_STEPPERS = {
-    "dopri5": (dopri5_step, 5, dopri5_dense),
+    "dopri5": AdaptivePair(dopri5_step, 5, dopri5_dense, dopri5_dense_point, error_norm2,
+                           PI_DOPRI5, (("_stage", _stage), ("_dopri5_stages", _dopri5_stages))),
+    "dop853": AdaptivePair(dop853.dop853_step, 8, dop853.dop853_dense,
+                           dop853.dop853_dense_point, error_norm2_two_estimates, PI_DOP853,
+                           (("_stage", _stage), ("_dop853_stages", dop853._dop853_stages))),
 }
