@@ -205,7 +205,7 @@ def one_line_error(capsys) -> str:
 
 @pytest.mark.parametrize("name, kind", [("exam_question", "auto"), ("excess_work_map", "map"),
                                         ("phase_portraits", "auto"), ("phase_portraits", "traces"),
-                                        ("liftoff_map", "status"), ("exam_question", "lines")])
+                                        ("liftoff_map", "status")])
 def test_plot_writes_a_png(outputs, tmp_path, capsys, name, kind):
     figure = tmp_path / f"{name}-{kind}.png"
     nc = outputs[name][1] / f"{name}.nc"
