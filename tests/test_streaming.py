@@ -232,9 +232,13 @@ x0 = { linspace = [-0.85, -0.3, 16000] }
 def _chunks_done(partial):
     import netCDF4
 
+    with netCDF4.Dataset(partial, "r") as nc:
+        return int(np.unpackbits(np.atleast_1d(nc.getncattr(streaming.DONE_ATTR))).sum())
+
+
+def _chunks_done_yet(partial):
     try:
-        with netCDF4.Dataset(partial, "r") as nc:
-            return int(np.unpackbits(np.atleast_1d(nc.getncattr(streaming.DONE_ATTR))).sum())
+        return _chunks_done(partial)
     except (OSError, AttributeError, RuntimeError):  # not there yet, or being written
         return 0
 
@@ -251,10 +255,11 @@ def test_a_killed_run_resumes_to_an_identical_file(tmp_path):
     process = subprocess.Popen(_rampwork("run", scene_path, "-o", path, "-q", "--chunk-size", 400),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
-        deadline = time.monotonic() + 120
-        while _chunks_done(partial) < 2 and process.poll() is None and time.monotonic() < deadline:
+        deadline = time.monotonic() + 600  # a cold numba cache on a busy machine compiles slowly
+        while _chunks_done_yet(partial) < 2 and process.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert process.poll() is None, "the run ended before it could be killed: make it longer"
+        assert process.poll() is None, f"the run ended before it could be killed: {process.communicate()}"
+        assert time.monotonic() < deadline, "no two chunks finished in time"
         process.send_signal(signal.SIGKILL)
     finally:
         process.kill()

@@ -10,6 +10,7 @@ chunk by chunk -> the compiled kernel fills flat result arrays ->
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import time
@@ -49,6 +50,11 @@ class RunPlan:
     size: int
     check_contact: bool
     carry_slope: bool
+
+    @functools.cached_property
+    def axis_arrays(self) -> dict[str, np.ndarray]:
+        """The sweep's axes as arrays, converted once (not once a chunk)."""
+        return {name: np.asarray(values) for name, values in self.sweep.axes}
 
     @property
     def kernel_key(self):
@@ -258,13 +264,13 @@ def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray) -> float:
 # ------------------------------------------------------------------------------
 def axis_values(plan: RunPlan, start: int, stop: int) -> dict[str, np.ndarray]:
     """Each swept axis's value for the flat trajectories start..stop-1."""
-    sweep = plan.sweep
-    if not sweep.axes:
+    if not plan.sweep.axes:
         return {}
-    if sweep.kind == "cases":
-        return {name: np.array(values[start:stop]) for name, values in sweep.axes}
+    arrays = plan.axis_arrays
+    if plan.sweep.kind == "cases":
+        return {name: array[start:stop].copy() for name, array in arrays.items()}
     index = np.unravel_index(np.arange(start, stop), plan.shape)
-    return {name: np.asarray(values)[index[k]] for k, (name, values) in enumerate(sweep.axes)}
+    return {name: array[index[k]] for k, (name, array) in enumerate(arrays.items())}
 
 
 def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:

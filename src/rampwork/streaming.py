@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from . import io, runner
+from . import io, runner, schema
 from ._version import __version__
 from .errors import ConfigError
 from .scene import Scene, Sweep
@@ -129,8 +129,8 @@ class SweepToFile:
                  overwrite: bool = False, scheduler=None, compression_level: int = 4):
         self.plan = runner.plan_run(scene, sweep)
         self.compression_level = io.check_compression_level(compression_level)
-        if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer))
-                                       or chunk_size < 1):
+        if chunk_size is not None and (isinstance(chunk_size, bool)
+                                       or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
             raise ConfigError("chunk_size", f"must be a positive integer, got {chunk_size!r}")
         self.scheduler = _check_scheduler(scheduler, self.plan)
         if self.scheduler is not None and threads is not None:
@@ -197,44 +197,47 @@ class SweepToFile:
         rename. ``progress(done, total)`` (trajectories) is called once before
         the first chunk and after each. On any exception, Ctrl-C included, the
         partial file keeps every finished chunk. Returns the output path."""
-        if self.resuming:
-            nc = _open(self.partial, "a")
-        else:
-            nc = self._create()
-        for name in runner.dataset_layout(self.plan).attrs:
-            # each chunk is written whole, once: a cache would only hold on to
-            # written chunks (netCDF's default allows 16 MiB per variable)
-            nc[name].set_var_chunk_cache(size=0)
         info = {}
         try:
             pending = [int(i) for i in np.flatnonzero(~self.done)]
             run_chunks = self._threaded if self.scheduler is None else self._distributed
-            chunks = run_chunks(pending, info)  # compiled, or connected: run time starts now
-            started = time.perf_counter()
-            done = self._done_trajectories()
-            if progress is not None:
-                progress(done, self.plan.size)
-            for index, results in _one_ahead(chunks):
-                start, stop, where, shape = self.layout.piece(index)
-                for name, values in results.items():
-                    nc[name][where] = values.reshape(shape)
-                self._mark_done(nc, index, time.perf_counter() - started)
-                done += stop - start
-                if progress is not None:
-                    progress(done, self.plan.size)
-            run_seconds = self.previous_run_seconds + time.perf_counter() - started
-            self._finalise(nc, run_seconds, info)
+            chunks = run_chunks(pending, info)  # compiled, or connected, before the file is touched
+            nc = _open(self.partial, "a") if self.resuming else self._create()
+            try:
+                self._write(nc, chunks, info, progress)
+            finally:
+                if nc.isopen():
+                    nc.close()
         finally:
-            if nc.isopen():
-                nc.close()
             if "close" in info:
                 info["close"]()
         io.replace_file(self.partial, self.path, self.overwrite)
         return self.path
 
+    def _write(self, nc, chunks, info: dict, progress) -> None:
+        for name in runner.dataset_layout(self.plan).attrs:
+            # each chunk is written whole, once: a cache would only hold on to
+            # written chunks (netCDF's default allows 16 MiB per variable)
+            nc[name].set_var_chunk_cache(size=0)
+        started = time.perf_counter()
+        done = self._done_trajectories()
+        if progress is not None:
+            progress(done, self.plan.size)
+        for index, results in _one_ahead(chunks):
+            start, stop, where, shape = self.layout.piece(index)
+            for name, values in results.items():
+                nc[name][where] = values.reshape(shape)
+            self._mark_done(nc, index, time.perf_counter() - started)
+            done += stop - start
+            if progress is not None:
+                progress(done, self.plan.size)
+        self._finalise(nc, self.previous_run_seconds + time.perf_counter() - started, info)
+
     def _create(self):
         layout = runner.dataset_layout(self.plan)
-        placeholders = {name: (layout.dims, np.broadcast_to(np.zeros((), schema_dtype(name)), layout.shape), attrs)
+        # zero-stride stand-ins: the variables' values come chunk by chunk
+        placeholders = {name: (layout.dims, np.broadcast_to(np.zeros((), schema.OUTPUTS[name].np_dtype),
+                                                            layout.shape), attrs)
                         for name, attrs in layout.attrs.items()}
         skeleton = xr.Dataset(placeholders, coords=layout.coords)
         self.partial.unlink(missing_ok=True)  # a stale one: overwrite was asked for
@@ -301,7 +304,7 @@ class SweepToFile:
         client, cluster = _connect(self.scheduler)
         text = runner.scene_text(self.plan.scene, self.plan.sweep)
         info.update({"compile_time_s": 0.0, "threads": sum(client.nthreads().values()),
-                "scheduler": str(client.scheduler.address)})
+                     "scheduler": str(client.scheduler.address)})
         if cluster is not None:
             info["close"] = lambda: (client.close(), cluster.close())
 
@@ -377,15 +380,9 @@ def _one_ahead(items):
         worker.join()
 
 
-def schema_dtype(name: str) -> np.dtype:
-    from . import schema
-
-    return schema.OUTPUTS[name].np_dtype
-
-
 def _traces(prepared: runner.Prepared) -> tuple[xr.Dataset, float]:
-    traces, seconds = runner.with_traces(prepared, xr.Dataset())
-    return traces, seconds
+    """The recorded trajectories alone, and the seconds they took."""
+    return runner.with_traces(prepared, xr.Dataset())
 
 
 # ------------------------------------------------------------------------------
@@ -421,7 +418,8 @@ def _connect(scheduler):
     try:
         return Client(scheduler, timeout="10s"), None
     except (OSError, TimeoutError, ValueError) as error:
-        raise ConfigError("scheduler", f"cannot connect to {scheduler!r}: {' '.join(str(error).split())}") from None
+        raise ConfigError("scheduler", f"cannot connect to {scheduler!r}: "
+                          f"{' '.join(str(error).split())}") from None
 
 
 #: on a worker: prepared runs by scene text digest, and one kernel call at a
