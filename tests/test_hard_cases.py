@@ -274,15 +274,12 @@ def test_starts_on_either_end_moving_in_and_out(method):
     assert got[3]["x_end"] == hi and got[3]["n_reversals"] == 1
 
 
-@pytest.mark.parametrize("method", [
-    pytest.param(m, marks=pytest.mark.xfail(strict=True, reason=(
-        "kernel bug: explicit Euler at rest exactly on a domain end whose slope "
-        "sends it inward reports exited at t = 0 (its first step leaves x unchanged "
-        "and the end test counts x == x_min as reached)"))) if m == "euler" else m
-    for m in METHODS])
+@pytest.mark.parametrize("method", METHODS)
 def test_start_at_rest_on_an_end_slides_inward(method):
     """At rest on the lower end of a ramp falling to the right: the rest rule
-    sends it inward; it slides the whole length and exits at the far end."""
+    sends it inward; it slides the whole length and exits at the far end.
+    Regression: explicit Euler's first step from rest leaves x unchanged, and
+    until c285cb8 the end test counted that as an exit at t = 0."""
     case = (-0.5, STRAIGHT_DOMAIN[0], 0.0, 0.2, 0.2)
     assert_matches_straight_exact(results(rw.simulate(straight_scene(method), straight_cases([case])))[0],
                                   case, method)
@@ -330,15 +327,15 @@ STEP_SCENES = {
 
 
 @pytest.mark.parametrize("scene_name, method", [
-    pytest.param(name, m, marks=pytest.mark.xfail(strict=True, reason=(
-        "kernel bug: rk4 at dt = 1 s on the crest (omega dt = 31) returns W_friction = -3.85 J "
-        "with status exited, not diverged"))) if (name, m) == ("crest", "rk4") else (name, m)
-    for name in STEP_SCENES for m in METHODS])
+    (name, m) for name in STEP_SCENES for m in METHODS])
 def test_step_far_too_large_is_never_an_unflagged_nan(scene_name, method):
     """Steps of 0.05 s to 100 s (up to 3000 times the crest's 1/omega), and
     for dopri5 a 100 s first step at rtol 0.1: every output is finite unless
     the status says diverged; a run that is not diverged ends inside the
-    domain, by t_max, with W_f >= 0 and x_lift_off set exactly when it lifted off."""
+    domain, by t_max, with W_f >= 0 and x_lift_off set exactly when it lifted off.
+    Regression: until this test's commit rk4 at dt = 1 s on the crest (omega dt
+    = 31) lifted off with W_friction = -3.85 J (a partial step to the event whose
+    friction work came out negative), now diverged."""
     scene = STEP_SCENES[scene_name]
     sweep = rw.Sweep.cases(v0=[scene.v0, -scene.v0, 0.0], x0=[scene.x0, scene.x0, 0.5 * scene.x0])
     if method == "dopri5":

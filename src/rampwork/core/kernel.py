@@ -472,10 +472,14 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     # A long step can hold two events of which its end shows only one (a
     # block that passes the domain's end and comes back shows only its
     # reversal): check every event function at the earliest event found.
+    checked_h = -1.0  # the step at which bounded_there was evaluated
+    bounded_there = True
     for _ in range(4):
         if best_kind == EV_NONE or best_h <= 0.0:
             break
-        _, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, best_h, settings, shared)
+        bounded_there, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, best_h,
+                                                                          settings, shared)
+        checked_h = best_h
         values = (exit_lo, exit_hi, contact, reversal)
         earlier = False
         for k in range(4):
@@ -487,6 +491,15 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
                 break
         if not earlier:
             break
+    if best_kind != EV_NONE and best_h > 0.0:
+        if checked_h != best_h:
+            bounded_there = event_values(lanes, i, best_h, settings, shared)[0]
+        if not bounded_there:
+            # the partial step to the event is itself unusable (a step far too
+            # long: e.g. its friction work comes out negative)
+            rebase(lanes, i, t_now, settings)
+            finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
+            return False
     h_time = t_max - t_now
     if h_time < best_h or (best_kind == EV_NONE and h_time <= h_end):
         best_h = max(h_time, 0.0)
