@@ -300,7 +300,7 @@ scene = rw.Scene(ramp=rw.Ramp.create("quadratic", curvature=1.0, domain=(-1.0, 1
 sweep = rw.Sweep.grid(mu=[0.2, 0.25, 0.3, 0.35], v0=[0.0, 0.5, 1.0, 1.5, 2.0], x0=np.linspace(-0.9, -0.85, 50000))
 rw.run_to_file(scene, rw.Sweep.grid(mu=[0.2]), sys.argv[1] + ".warm.nc")  # compile, load netCDF
 before = peak()
-rw.run_to_file(scene, sweep, sys.argv[1], chunk_size=20000)
+rw.run_to_file(scene, sweep, sys.argv[1], chunk_size=10000)
 print(sweep.size, before, peak())
 """
 
@@ -320,7 +320,7 @@ def test_a_million_trajectories_in_bounded_memory(tmp_path):
     print(f"\n{size:,} trajectories, {in_memory / 2**20:.0f} MiB of results; "
           f"peak RSS {before / 2**20:.0f} MiB before the run, {after / 2**20:.0f} MiB after "
           f"(growth {growth / 2**20:.1f} MiB)")
-    assert growth < in_memory / 8
+    assert growth < in_memory / 5  # about three chunks in flight: the one computed, queued, written
 
 
 # ------------------------------------------------------------------------------
