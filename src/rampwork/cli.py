@@ -435,6 +435,10 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default: ``sys.argv[1:]``); returns
     the exit status (0 ok, 2 bad input or usage, 130 interrupted)."""
     parser = build_parser()
+    for argument in argv or ():
+        if isinstance(argument, str) and "\0" in argument:  # only main([...]) can pass one
+            _error(f"argument {argument!r} contains a NUL byte: not a file name or value")
+            return EXIT_ERROR
     try:
         try:
             args = parser.parse_args(argv)

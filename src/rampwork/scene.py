@@ -29,6 +29,8 @@ CONTACTS = ("one_sided", "two_sided")
 SWEEP_KINDS = ("grid", "cases")
 #: sweep axes that are not ramp parameters (schema.AXES holds their units)
 SCENE_AXES = ("mu", "mu_k", "mu_s", "x0", "v0", "m", "g")
+#: the largest flat trajectory index (int64)
+MAX_FLAT_INDEX = int(np.iinfo(np.int64).max)
 #: the most fixed steps one trajectory may take (t_max / dt)
 MAX_STEPS_PER_TRAJECTORY = 1e10
 
@@ -146,7 +148,8 @@ class Record:
         validate.integer("record.every", self.every, 1)
         validate.integer("record.max_samples", self.max_samples, 2, 10_000_000)
         if self.indices is not None:
-            indices = tuple(validate.integer(f"record.indices[{k}]", i, 0)
+            # int64 flat indices (larger ones cannot name a trajectory)
+            indices = tuple(validate.integer(f"record.indices[{k}]", i, 0, MAX_FLAT_INDEX)
                             for k, i in enumerate(self.indices))
             object.__setattr__(self, "indices", indices)
 

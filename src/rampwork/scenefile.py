@@ -32,8 +32,9 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     [integrator]       # default rk4, dt = 1e-3
     method = "rk4"     # euler | semi_implicit_euler | rk4: fixed steps of dt
                        # | dopri5: adaptive (Dormand-Prince 5(4), error control)
-    dt = 1e-3          # s; dopri5: the first step (default: estimated)
-    # dopri5 only:
+                       # | dop853: adaptive (Dormand-Prince 8(5,3), for tight tolerances)
+    dt = 1e-3          # s; dopri5, dop853: the first step (default: estimated)
+    # dopri5, dop853 only:
     # rtol = 1e-8      # relative tolerance on x, v and the work integrals (default 1e-6)
     # atol = 1e-8      # absolute tolerance, SI units (default: rtol)
     # dt_max = 0.1     # s, the largest step (default: none)
@@ -110,6 +111,9 @@ __all__ = [
 MAX_AXIS_POINTS = 10**8
 #: the most trajectories one sweep may have
 MAX_TRAJECTORIES = 10**9
+#: the largest scene file read (bytes): a scene is a few lines; this bounds
+#: what a wrong path such as /dev/zero or a multi-gigabyte file can cost
+MAX_SCENE_BYTES = 64 << 20
 
 TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact",
             "ramp", "friction", "integrator", "record", "sweep")
@@ -227,6 +231,9 @@ def read_toml(text: str, source: str = "<string>") -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(source, f"TOML syntax error: {_one_line(error)}") from None
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise ConfigError(source, "TOML nested too deeply (arrays or inline tables inside "
+                          "each other hundreds of levels deep)") from None
 
 
 def parse_scene(text: str, source: str = "<string>") -> tuple[Scene, Sweep]:
@@ -236,16 +243,21 @@ def parse_scene(text: str, source: str = "<string>") -> tuple[Scene, Sweep]:
 
 
 def _read_text(path: str | os.PathLike) -> str:
+    where = str(path).replace("\0", "\\0")
+    if "\0" in str(path):
+        raise ConfigError(where, "not a file name: contains a NUL byte")
     path = Path(path)
-    where = str(path)
     try:
-        data = path.read_bytes()
+        with path.open("rb") as file:
+            data = file.read(MAX_SCENE_BYTES + 1)
     except FileNotFoundError:
         raise ConfigError(where, "no such file") from None
     except IsADirectoryError:
         raise ConfigError(where, "is a directory, not a scene file") from None
     except OSError as error:
         raise ConfigError(where, f"cannot be read: {_one_line(error.strerror or error)}") from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise ConfigError(where, f"larger than {MAX_SCENE_BYTES >> 20} MiB: not a scene file")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as error:
@@ -307,9 +319,19 @@ def scene_from_dict(data: Mapping, source: str = "<dict>") -> tuple[Scene, Sweep
         _check_keys("", data, TOP_KEYS)
         scene = _scene(data)
         sweep = _sweep(data.get("sweep"), scene)
+        _check_record_indices(scene, sweep)
     except ConfigError as error:
         raise _located(source, error) from None
     return scene, sweep
+
+
+def _check_record_indices(scene: Scene, sweep: Sweep) -> None:
+    """Traced indices must name trajectories of the sweep (known only here,
+    with both read): refused before the run, not after it."""
+    for k, index in enumerate(scene.record.indices or ()):
+        if index >= sweep.size:
+            raise ConfigError(f"record.indices[{k}]", f"{_short(index)} is beyond the sweep's "
+                              f"{sweep.size:,} trajectories (flat indices 0 .. {sweep.size - 1:,})")
 
 
 def _scene(data: dict) -> Scene:
