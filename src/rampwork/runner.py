@@ -80,8 +80,8 @@ def check_memory(plan: RunPlan) -> None:
     if memory > MEMORY_SHARE * _physical_memory():
         raise ConfigError("sweep", f"{plan.size:,} trajectories need about {memory / 2**30:.1f} GiB for "
                           f"their results, more than {MEMORY_SHARE:.0%} of this machine's "
-                          f"{_physical_memory() / 2**30:.1f} GiB; write them to a file chunk by chunk "
-                          "(rampwork.run_to_file, or `rampwork run`)")
+                          f"{_physical_memory() / 2**30:.1f} GiB; split the sweep, or write it to a file "
+                          "chunk by chunk (rampwork.run_to_file, or `rampwork run`)")
 
 
 def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
