@@ -7,7 +7,8 @@ ramp whose convexity changes sign), each a small random sweep of x0, v0 and mu
 around the scene's case, the benchmark runs in one process
 
 * rampwork's fixed-step methods (euler, semi_implicit_euler, rk4) over a range
-  of dt, and the adaptive dopri5 over rtol = atol from 1e-3 to 1e-12; time per
+  of dt, and the adaptive pairs dopri5 (Dormand-Prince 5(4)) and dop853
+  (Dormand-Prince 8(5,3)) over rtol = atol from 1e-3 to 1e-12; time per
   10^5 trajectories is scaled from the kernel's measured ``run_time_s``
   (compile time, from the first call of each kernel, is reported apart);
 * an independent reference, ``rampwork.reference.reference_sweep`` (scipy
@@ -26,9 +27,11 @@ around the scene's case, the benchmark runs in one process
   DOP853 at rtol = atol 1e-4 .. 1e-10), timed per trajectory on a subset,
   one process, scaled to 10^5 trajectories;
 * at rtol = 1e-8 on the quadratic-bowl grid of ``throughput.py`` (10^6
-  trajectories, 10^5 with ``--quick``): dopri5's trajectories per second on 2
-  threads beside scipy's rate on a subset, dopri5's mean steps and rejected
-  steps per trajectory, and whether the target of 10^6 trajectories/s is met.
+  trajectories, 10^5 with ``--quick``): dopri5's and dop853's trajectories
+  per second on 2 threads (their repeats interleaved, the fastest of each
+  counts) beside scipy's rate on a subset, each pair's mean steps and rejected
+  steps per trajectory and its error on a reference subset, and whether the
+  target of 10^6 trajectories/s is met (by either pair).
 
 It prints a table as it goes and a summary at the end (what accuracy costs,
 and the fastest method for each accuracy target from 1e-3 to 1e-12), and
@@ -109,13 +112,17 @@ SCENES = (
 )
 
 FIXED_METHODS = ("euler", "semi_implicit_euler", "rk4")
-ADAPTIVE_METHOD = "dopri5"
+#: the adaptive pairs, over rtol = atol: Dormand-Prince 5(4) and 8(5,3)
+ADAPTIVE_METHODS = ("dopri5", "dop853")
+RAMPWORK_METHODS = FIXED_METHODS + ADAPTIVE_METHODS
 SCIPY_METHODS = ("RK45", "DOP853")
+ALL_METHODS = RAMPWORK_METHODS + SCIPY_METHODS
 METHOD_LABELS = {"euler": "Euler", "semi_implicit_euler": "semi-implicit Euler", "rk4": "RK4",
-                 "dopri5": "dopri5", "RK45": "scipy RK45", "DOP853": "scipy DOP853"}
+                 "dopri5": "dopri5", "dop853": "dop853", "RK45": "scipy RK45", "DOP853": "scipy DOP853"}
 #: figure styles, readable in greyscale: marker, linestyle, colour, marker filled
 STYLES = {"euler": ("o", "-", "C0", True), "semi_implicit_euler": ("s", "--", "C1", True),
           "rk4": ("^", "-.", "C2", True), "dopri5": ("D", ":", "C3", True),
+          "dop853": ("X", (0, (7, 2, 1.5, 2, 1.5, 2)), "k", True),
           "RK45": ("v", "none", "C4", False), "DOP853": ("P", "none", "C5", False)}
 
 #: reference: rampwork.reference at these tolerances (atol applies to x, v, W and
@@ -146,7 +153,8 @@ QUICK = dict(n=1000, ref_subset=40, scipy_subset=10,
 
 #: accuracy targets of the summary
 TARGETS = tuple(10.0 ** -k for k in range(3, 13))
-#: dopri5 trajectories per second on the throughput grid at rtol 1e-8, 2 threads
+#: the adaptive pairs' trajectories per second on the throughput grid at rtol 1e-8, 2 threads
+#: (the target is met if either pair meets it)
 TP_RTOL = 1e-8
 TP_TARGET = 1e6
 TP_THREADS = 2
@@ -166,11 +174,11 @@ def parse_args(argv=None):
         prog="accuracy_cost.py",
         description=(
             "Work-precision diagrams: error in W_friction and x_end against time per 10^5 "
-            "trajectories for rampwork's euler, semi_implicit_euler and rk4 over dt and dopri5 "
-            "over rtol, on four scenes (straight, convex bowl, concave dome with lift-off, sine), "
-            "against an independent scipy DOP853 reference, with scipy solve_ivp as the peer; and "
-            "dopri5's trajectories/s at rtol 1e-8 on throughput.py's quadratic-bowl grid. Saves "
-            "JSON, markdown, PNG and netCDF under --out."))
+            "trajectories for rampwork's euler, semi_implicit_euler and rk4 over dt and the "
+            "adaptive pairs dopri5 and dop853 over rtol, on four scenes (straight, convex bowl, "
+            "concave dome with lift-off, sine), against an independent scipy DOP853 reference, with "
+            "scipy solve_ivp as the peer; and dopri5's and dop853's trajectories/s at rtol 1e-8 on "
+            "throughput.py's quadratic-bowl grid. Saves JSON, markdown, PNG and netCDF under --out."))
     p.add_argument("--quick", action="store_true",
                    help="small sizes, fewer dt/rtol points (under 3 minutes once compiled)")
     p.add_argument("--out", type=pathlib.Path, default=C.RESULTS_DIR,
@@ -225,9 +233,10 @@ def build_settings(sizes) -> list[dict]:
         for dt in sizes["dts"]:
             settings.append({"label": f"{method} dt={fmt_e(dt)}", "solver": "rampwork", "method": method,
                              "dt": dt, "rtol": math.nan})
-    for rtol in sizes["rtols"]:
-        settings.append({"label": f"{ADAPTIVE_METHOD} rtol={fmt_e(rtol)}", "solver": "rampwork",
-                         "method": ADAPTIVE_METHOD, "dt": math.nan, "rtol": rtol})
+    for method in ADAPTIVE_METHODS:
+        for rtol in sizes["rtols"]:
+            settings.append({"label": f"{method} rtol={fmt_e(rtol)}", "solver": "rampwork",
+                             "method": method, "dt": math.nan, "rtol": rtol})
     for method in SCIPY_METHODS:
         for rtol in sizes["scipy_rtols"]:
             settings.append({"label": f"scipy {method} rtol={fmt_e(rtol)}", "solver": "scipy",
@@ -240,7 +249,7 @@ def make_ramp(rw, spec: SceneSpec):
 
 
 def make_scene(rw, spec: SceneSpec, method: str, dt=None, rtol=None):
-    if method == ADAPTIVE_METHOD:
+    if method in ADAPTIVE_METHODS:
         integrator = rw.Integrator(method, rtol=rtol, atol=rtol)
     else:
         integrator = rw.Integrator(method, dt=dt)
@@ -632,68 +641,87 @@ def throughput_line(rw, reference, np, args) -> dict:
     sweep = rw.Sweep.grid(**axes)
     ramp = rw.Ramp.create("quadratic", curvature=T.CURVATURE, slope=T.SLOPE, height=T.HEIGHT,
                           domain=T.DOMAIN)
-    scene = rw.Scene(ramp=ramp, friction=rw.Friction(mu_k=0.2),
-                     integrator=rw.Integrator(ADAPTIVE_METHOD, rtol=TP_RTOL, atol=TP_RTOL),
-                     g=T.G, t_max=T.T_MAX, title="accuracy_cost benchmark: throughput at rtol 1e-8")
+    scenes = {m: rw.Scene(ramp=ramp, friction=rw.Friction(mu_k=0.2),
+                          integrator=rw.Integrator(m, rtol=TP_RTOL, atol=TP_RTOL),
+                          g=T.G, t_max=T.T_MAX, title=f"accuracy_cost benchmark: {m} throughput at rtol 1e-8")
+              for m in ADAPTIVE_METHODS}
     print(f"\n=== throughput at rtol {TP_RTOL:g}: throughput.py's quadratic bowl grid, {n:,} trajectories "
-          f"= x0[{shape[0]}] x v0[{shape[1]}] x mu[{shape[2]}], {threads} threads", flush=True)
+          f"= x0[{shape[0]}] x v0[{shape[1]}] x mu[{shape[2]}], {threads} threads; "
+          f"{', '.join(ADAPTIVE_METHODS)} interleaved, 3 runs each", flush=True)
     rng = np.random.default_rng(args.seed)
     order = rng.permutation(n)
     sub_idx = order[:max(sizes["tp_scipy"], sizes["tp_ref"])]
     cols = T.flat_columns(axes, sub_idx, np)
-    comp = first_call(rw, scene, {k: v[:2] for k, v in cols.items()}, threads)
-    best, times, shares = None, [], []
-    for _ in range(3):  # always three runs, the fastest counts (as throughput.py's --repeat)
-        with OtherCpu() as other:
-            ds = rw.simulate(scene, sweep, threads=threads)
-        shares.append(other.share)
-        times.append(float(ds.attrs["run_time_s"]))
-        if best is None or times[-1] <= min(times):
-            best = ds
-        else:
+    comp = {m: first_call(rw, scenes[m], {k: v[:2] for k, v in cols.items()}, threads)
+            for m in ADAPTIVE_METHODS}
+    best = dict.fromkeys(ADAPTIVE_METHODS)
+    times = {m: [] for m in ADAPTIVE_METHODS}
+    shares = {m: [] for m in ADAPTIVE_METHODS}
+    for rep_ in range(3):  # always three runs of each, interleaved, the fastest counts
+        for m in (ADAPTIVE_METHODS if rep_ % 2 == 0 else ADAPTIVE_METHODS[::-1]):
+            with OtherCpu() as other:
+                ds = rw.simulate(scenes[m], sweep, threads=threads)
+            shares[m].append(other.share)
+            times[m].append(float(ds.attrs["run_time_s"]))
+            if best[m] is None or times[m][-1] <= min(times[m]):
+                best[m] = {k: ds[k].values.ravel().copy() for k in
+                           ("status", "x_end", "W_friction", "t_end", "steps", "steps_rejected",
+                            "W_friction_error_estimate") if k in ds}
+                best[m]["trajectory_steps"] = int(ds.attrs["trajectory_steps"])
             del ds
-    ds = best
-    fastest_share = shares[times.index(min(times))]
-    run_s = min(times)
-    st = ds["status"].values.ravel()
-    flat = {k: ds[k].values.ravel() for k in ("status", "x_end", "W_friction", "t_end")}
     out = {"grid_n": n, "grid_shape": shape, "rtol": TP_RTOL, "atol": TP_RTOL, "threads": threads,
-           "compile": comp, "run_time_s": run_s, "run_times_s": times,
-           "other_cpu_share_runs": shares, "other_cpu_share": fastest_share,
-           "trajectories_per_s": n / run_s,
-           "steps_mean": float(ds["steps"].values.mean()),
-           "steps_rejected_mean": float(ds["steps_rejected"].values.mean()),
-           "steps_per_s": int(ds.attrs["trajectory_steps"]) / run_s,
-           "status_fractions": {STATUS_NAMES[s]: float((st == s).mean()) for s in STATUS_NAMES
-                                if (st == s).any()},
-           "outside_domain": int(outside_domain(flat["x_end"], T.DOMAIN, np).sum()),
-           "target_trajectories_per_s": TP_TARGET}
-    out["target_met"] = out["trajectories_per_s"] >= TP_TARGET
-    del ds
-    print(f"dopri5: compile {comp['compile_time_s']:.1f} s ({comp['source']}); run {run_s:.3f} s "
-          f"(runs {', '.join(f'{t:.3f}' for t in times)}; other processes' CPU share "
-          f"{', '.join('-' if v is None else f'{100 * v:.0f}%' for v in shares)}); "
-          f"{out['trajectories_per_s']:.3e} traj/s; "
-          f"steps/traj mean {out['steps_mean']:.1f}, rejected {out['steps_rejected_mean']:.2f}; "
-          f"status {', '.join(f'{k} {v:.3f}' for k, v in out['status_fractions'].items())}", flush=True)
+           "methods": {}, "target_trajectories_per_s": TP_TARGET}
+    for m in ADAPTIVE_METHODS:
+        flat = best[m]
+        run_s = min(times[m])
+        st = flat["status"]
+        out["methods"][m] = {
+            "compile": comp[m], "run_time_s": run_s, "run_times_s": times[m],
+            "other_cpu_share_runs": shares[m], "other_cpu_share": shares[m][times[m].index(run_s)],
+            "trajectories_per_s": n / run_s,
+            "steps_mean": float(flat["steps"].mean()),
+            "steps_rejected_mean": float(flat["steps_rejected"].mean()),
+            "steps_per_s": flat["trajectory_steps"] / run_s,
+            "status_fractions": {STATUS_NAMES[s_]: float((st == s_).mean()) for s_ in STATUS_NAMES
+                                 if (st == s_).any()},
+            "outside_domain": int(outside_domain(flat["x_end"], T.DOMAIN, np).sum())}
+        t = out["methods"][m]
+        t["target_met"] = t["trajectories_per_s"] >= TP_TARGET
+        print(f"{m}: compile {comp[m]['compile_time_s']:.1f} s ({comp[m]['source']}); run {run_s:.3f} s "
+              f"(runs {', '.join(f'{x:.3f}' for x in times[m])}; other processes' CPU share "
+              f"{', '.join('-' if v is None else f'{100 * v:.0f}%' for v in shares[m])}); "
+              f"{t['trajectories_per_s']:.3e} traj/s; "
+              f"steps/traj mean {t['steps_mean']:.1f}, rejected {t['steps_rejected_mean']:.2f}; "
+              f"status {', '.join(f'{k} {v:.3f}' for k, v in t['status_fractions'].items())}", flush=True)
+    out["target_met"] = any(t["target_met"] for t in out["methods"].values())
+    out["fastest"] = max(ADAPTIVE_METHODS, key=lambda m: out["methods"][m]["trajectories_per_s"])
 
-    # accuracy of that run on a subset, against the reference
+    # accuracy of each run on a subset, against the reference
     ref_cols = {k: v[:sizes["tp_ref"]] for k, v in cols.items()}
     spec = SceneSpec("throughput", "quadratic bowl", "quadratic",
                      {"curvature": T.CURVATURE, "slope": T.SLOPE, "height": T.HEIGHT}, T.DOMAIN,
                      "one_sided", {}, T.T_MAX)
     ref = reference_on(rw, reference, spec, ref_cols, REF_RTOL, REF_ATOL, np)
     valid = reference_validity(ref, T.DOMAIN, np)
-    sub = {k: v[sub_idx[:sizes["tp_ref"]]] for k, v in flat.items()}
-    out["accuracy"] = errors_against(sub, {k: v for k, v in ref.items() if k != "seconds"}, valid, np)
-    out["accuracy"]["reference_invalid"] = int((~valid).sum())
-    a = out["accuracy"]
-    print(f"dopri5 accuracy on {valid.size} trajectories: W err median {fmt_err(a['W_error_median'])}, "
-          f"max {fmt_err(a['W_error_max'])}; stuck x_end err median {fmt_err(a['x_error_median'])} m, max "
-          f"{fmt_err(a['x_error_max'])} m; status mismatch {a['status_mismatch']}/{a['n_valid']}", flush=True)
+    for m in ADAPTIVE_METHODS:
+        flat = best[m]
+        sub = {k: flat[k][sub_idx[:sizes["tp_ref"]]] for k in ("status", "x_end", "W_friction", "t_end")}
+        acc = errors_against(sub, {k: v for k, v in ref.items() if k != "seconds"}, valid, np)
+        acc["reference_invalid"] = int((~valid).sum())
+        if "W_friction_error_estimate" in flat:
+            est = np.abs(flat["W_friction_error_estimate"][sub_idx[:sizes["tp_ref"]]])
+            acc["W_error_estimate_median"] = float(np.nanmedian(
+                est / np.maximum(np.abs(sub["W_friction"]), W_FLOOR)))
+        out["methods"][m]["accuracy"] = a = acc
+        print(f"{m} accuracy on {valid.size} trajectories: W err median {fmt_err(a['W_error_median'])}, "
+              f"max {fmt_err(a['W_error_max'])}; stuck x_end err median {fmt_err(a['x_error_median'])} m, "
+              f"max {fmt_err(a['x_error_max'])} m; status mismatch {a['status_mismatch']}/{a['n_valid']}",
+              flush=True)
+    del best
 
     # scipy at the same rtol on a subset: rampwork.reference's event loop (all
     # events, 4 states) and throughput.py's lean quadratic-only loop
+    scene = scenes[ADAPTIVE_METHODS[0]]
     sc_cols = {k: v[:sizes["tp_scipy"]] for k, v in cols.items()}
     res = scipy_run(reference, scene, sc_cols, "DOP853", TP_RTOL, np)
     out["scipy_reference_loop"] = {
@@ -709,7 +737,9 @@ def throughput_line(rw, reference, np, args) -> dict:
                 f"atol {T.SCIPY_ATOL:g}, quadratic bowl only, reversal/stick and exit events",
         "trajectories": int(sc_cols["x0"].size), "seconds": lean["seconds"],
         "trajectories_per_s": sc_cols["x0"].size / lean["seconds"]}
-    out["ratio_vs_scipy"] = out["trajectories_per_s"] / out["scipy_lean_loop"]["trajectories_per_s"]
+    for m in ADAPTIVE_METHODS:
+        out["methods"][m]["ratio_vs_scipy"] = (out["methods"][m]["trajectories_per_s"]
+                                               / out["scipy_lean_loop"]["trajectories_per_s"])
     print(f"scipy DOP853 rtol 1e-8 per trajectory ({sc_cols['x0'].size} trajectories, 1 process): "
           f"{out['scipy_reference_loop']['trajectories_per_s']:.3g} traj/s (reference loop), "
           f"{out['scipy_lean_loop']['trajectories_per_s']:.3g} traj/s (throughput.py's lean loop)",
@@ -718,18 +748,29 @@ def throughput_line(rw, reference, np, args) -> dict:
 
 
 def throughput_sentence(tp) -> str:
+    per = []
+    for m in ADAPTIVE_METHODS:
+        t = tp["methods"][m]
+        acc = t["accuracy"]
+        per.append(
+            f"{m} {t['trajectories_per_s']:.3e} trajectories/s ({t['trajectories_per_s'] / TP_TARGET:.3g} of "
+            f"target; mean {t['steps_mean']:.1f} steps and {t['steps_rejected_mean']:.2f} rejected steps per "
+            f"trajectory; W error median {fmt_err(acc['W_error_median'])}, max {fmt_err(acc['W_error_max'])}"
+            + (f", its own estimate median {fmt_err(acc['W_error_estimate_median'])}"
+               if acc.get("W_error_estimate_median") is not None else "")
+            + f", status mismatch {acc['status_mismatch']}/{acc['n_valid']}; "
+            f"{C.fmt_ratio(t['ratio_vs_scipy'])} scipy's rate"
+            + (f"; other processes used {100 * t['other_cpu_share']:.0f}% of the CPU during its fastest run"
+               if t.get("other_cpu_share") is not None else "") + ")")
+    met = [m for m in ADAPTIVE_METHODS if tp["methods"][m]["target_met"]]
     return (f"THROUGHPUT AT RTOL 1e-8 (throughput.py's quadratic bowl grid, {tp['grid_n']:,} trajectories, "
-            f"{tp['threads']} threads): dopri5 {tp['trajectories_per_s']:.3e} trajectories/s "
-            f"vs target {TP_TARGET:.0e}: {'MET' if tp['target_met'] else 'NOT MET'} "
-            f"({tp['trajectories_per_s'] / TP_TARGET:.3g} of target); mean {tp['steps_mean']:.1f} steps "
-            f"and {tp['steps_rejected_mean']:.2f} rejected steps per trajectory; scipy solve_ivp DOP853 "
-            f"per trajectory {tp['scipy_lean_loop']['trajectories_per_s']:.3g} trajectories/s "
-            f"(throughput.py's loop; {tp['scipy_reference_loop']['trajectories_per_s']:.3g} with "
-            f"rampwork.reference's loop): dopri5 is {C.fmt_ratio(tp['ratio_vs_scipy'])} faster; "
-            f"dopri5's W error there: median {fmt_err(tp['accuracy']['W_error_median'])}, max "
-            f"{fmt_err(tp['accuracy']['W_error_max'])}"
-            + (f"; other processes used {100 * tp['other_cpu_share']:.0f}% of the machine's CPU during "
-               "the fastest run" if tp.get("other_cpu_share") is not None else "") + ".")
+            f"{tp['threads']} threads, the two pairs' runs interleaved, fastest of 3 each): "
+            + "; ".join(per)
+            + f". Target {TP_TARGET:.0e} trajectories/s: "
+            + (f"MET by {' and '.join(met)}" if met else "NOT MET by either pair")
+            + f". scipy solve_ivp DOP853 per trajectory: {tp['scipy_lean_loop']['trajectories_per_s']:.3g} "
+            f"trajectories/s (throughput.py's loop; {tp['scipy_reference_loop']['trajectories_per_s']:.3g} "
+            "with rampwork.reference's loop).")
 
 
 # ------------------------------------------------------------------------------
@@ -771,7 +812,7 @@ def picks(scenes, allow_mismatch=False) -> list[dict]:
     """For each target: each method's cheapest setting per scene, and the
     method with the least total time over all scenes (None where a method
     misses a scene)."""
-    families = list(FIXED_METHODS) + [ADAPTIVE_METHOD] + list(SCIPY_METHODS)
+    families = list(ALL_METHODS)
     rows = []
     for target in TARGETS:
         per_family = {}
@@ -804,7 +845,7 @@ def cost_slopes(scenes, np) -> dict:
     points clear of the reference's floor and of rounding, no status
     mismatch), median over the scenes; 10**-b is the time factor per decade."""
     out = {}
-    for fam in list(FIXED_METHODS) + [ADAPTIVE_METHOD] + list(SCIPY_METHODS):
+    for fam in ALL_METHODS:
         slopes = {}
         for s in scenes:
             floor = max(s["reference"]["check"]["W_diff_max"] or 0.0, 1e-13)
@@ -836,7 +877,7 @@ def summary_paragraph(res) -> str:
              f"reference subset, W_friction relative and x_end in m; time per 10^5 trajectories summed "
              f"over the scenes, rampwork on {threads} threads, scipy on one core): "]
     growth = []
-    for fam in list(FIXED_METHODS) + [ADAPTIVE_METHOD]:
+    for fam in RAMPWORK_METHODS:
         s = slopes[fam]
         if math.isfinite(s["median"]):
             growth.append(f"{METHOD_LABELS[fam]} x{s['time_factor_per_decade']:.2g} "
@@ -845,7 +886,7 @@ def summary_paragraph(res) -> str:
         straight = any(s["family"] == "straight" for s in scenes)
         parts.append("each further decade of accuracy multiplies the time by about "
                      + ", ".join(growth) + " (median over the scenes"
-                     + ("; the straight ramp, which RK4 and dopri5 integrate exactly, gives no slope"
+                     + ("; the straight ramp, which RK4 and the adaptive pairs integrate exactly, gives no slope"
                         if straight else "") + "). ")
     def settings_text(pm):
         values = [v.split(" ", 1)[-1] if v else "-" for v in pm["settings"].values()]
@@ -907,7 +948,7 @@ def summary_paragraph(res) -> str:
                      + f", none in {total - sum(len(v) for v in wins.values())}. ")
     # who is disqualified by mismatches, and where
     mism = []
-    for fam in list(FIXED_METHODS) + [ADAPTIVE_METHOD] + list(SCIPY_METHODS):
+    for fam in ALL_METHODS:
         where = {}
         for s in scenes:
             rs = [r for r in s["results"] if family_of(r) == fam]
@@ -919,26 +960,27 @@ def summary_paragraph(res) -> str:
     if mism:
         parts.append("Status mismatches with the reference (a trajectory that ends stuck, exited or "
                      "lifted off where the reference says otherwise) disqualify: " + "; ".join(mism) + ". ")
-    drift = []
-    for s in scenes:
-        rs = [r for r in s["results"] if family_of(r) == ADAPTIVE_METHOD]
-        if len(rs) < 2:
-            continue
-        tight = rs[-1]["status_counts_sweep"]
-        worst = None
-        for r in rs[:-1]:
-            diff = sum(abs(r["status_counts_sweep"].get(k, 0) - tight.get(k, 0))
-                       for k in set(tight) | set(r["status_counts_sweep"])) // 2
-            if diff and (worst is None or diff > worst[0]):
-                worst = (diff, r["label"].split(" ", 1)[1])
-        if worst:
-            drift.append(f"{s['key']} up to {worst[0]} of {s['n']} at {worst[1]}")
-    if drift:
-        parts.append("Over the whole sweep, dopri5's status counts differ from those at its tightest "
-                     "rtol on: " + "; ".join(drift) + ". ")
+    for fam in ADAPTIVE_METHODS:
+        drift = []
+        for s in scenes:
+            rs = [r for r in s["results"] if family_of(r) == fam]
+            if len(rs) < 2:
+                continue
+            tight = rs[-1]["status_counts_sweep"]
+            worst = None
+            for r in rs[:-1]:
+                diff = sum(abs(r["status_counts_sweep"].get(k, 0) - tight.get(k, 0))
+                           for k in set(tight) | set(r["status_counts_sweep"])) // 2
+                if diff and (worst is None or diff > worst[0]):
+                    worst = (diff, r["label"].split(" ", 1)[1])
+            if worst:
+                drift.append(f"{s['key']} up to {worst[0]} of {s['n']} at {worst[1]}")
+        if drift:
+            parts.append(f"Over the whole sweep, {METHOD_LABELS[fam]}'s status counts differ from those at "
+                         "its tightest rtol on: " + "; ".join(drift) + ". ")
     outside = []
     for s in scenes:
-        for fam in [ADAPTIVE_METHOD] + list(SCIPY_METHODS):
+        for fam in ADAPTIVE_METHODS + SCIPY_METHODS:
             rs = [r for r in s["results"] if family_of(r) == fam and r.get("outside_domain")]
             if rs:
                 outside.append(f"{METHOD_LABELS[fam]} on {s['key']} ({len(rs)} settings, up to "
@@ -959,17 +1001,30 @@ def summary_paragraph(res) -> str:
                      f"reference at rtol {REF_CHECK_RTOL:g} and at {REF_RTOL:g}: a start on a knife edge, or "
                      "an event the looser run missed) are left out of every comparison: "
                      + ", ".join(unconv) + ". ")
-    # scipy vs dopri5 at matched accuracy
+    # dop853 against dopri5, target by target (where both reach it on every scene)
+    versus = []
+    for row in strict:
+        a, b = (row["per_method"][f]["total_time_per_1e5_s"] for f in ADAPTIVE_METHODS)
+        if a and b:
+            versus.append(f"{fmt_e(row['target'])}: {b / a:.2g}")
+        elif a or b:
+            versus.append(f"{fmt_e(row['target'])}: only {METHOD_LABELS[ADAPTIVE_METHODS[0 if a else 1]]}")
+    if versus:
+        parts.append(f"Time of {METHOD_LABELS[ADAPTIVE_METHODS[1]]} over that of "
+                     f"{METHOD_LABELS[ADAPTIVE_METHODS[0]]} at each target (summed over the scenes): "
+                     + ", ".join(versus) + ". ")
+    # scipy vs the faster adaptive pair at matched accuracy
     cmp_ = []
     for row in loose:
-        d = row["per_method"][ADAPTIVE_METHOD]["total_time_per_1e5_s"]
+        ds_ = [row["per_method"][f]["total_time_per_1e5_s"] for f in ADAPTIVE_METHODS]
+        ds_ = [v for v in ds_ if v]
         sc = [row["per_method"][f]["total_time_per_1e5_s"] for f in SCIPY_METHODS]
         sc = [v for v in sc if v is not None]
-        if d and sc:
-            cmp_.append(f"{fmt_e(row['target'])}: {min(sc) / d:,.0f}x")
+        if ds_ and sc:
+            cmp_.append(f"{fmt_e(row['target'])}: {min(sc) / min(ds_):,.0f}x")
     if cmp_:
         parts.append("At matched accuracy (wrong outcomes ignored) the best scipy solve_ivp setting "
-                     "needs more time than dopri5 by " + ", ".join(cmp_) + ".")
+                     "needs more time than the faster adaptive pair by " + ", ".join(cmp_) + ".")
     return "".join(parts)
 
 
@@ -1100,7 +1155,7 @@ def draw_figure(res, path):
     scenes = res["scenes"]
     fig, axes = plt.subplots(2, len(scenes), figsize=(4.6 * len(scenes), 9.4), squeeze=False,
                              layout="constrained")
-    families = list(FIXED_METHODS) + [ADAPTIVE_METHOD] + list(SCIPY_METHODS)
+    families = list(ALL_METHODS)
     for col, s in enumerate(scenes):
         ref = s["reference"]
         for row, (var, ylabel) in enumerate((("W", "relative error of W_friction"),
@@ -1155,7 +1210,7 @@ def draw_figure(res, path):
     for fam in families:
         marker, ls, color, filled = STYLES[fam]
         label = METHOD_LABELS[fam] + (" (over dt)" if fam in FIXED_METHODS else
-                                      " (over rtol = atol)" if fam == ADAPTIVE_METHOD else
+                                      " (over rtol = atol)" if fam in ADAPTIVE_METHODS else
                                       ", 1 process (rtol = atol)")
         handles.append(Line2D([], [], color=color, marker=marker, linestyle=ls if ls != "none" else "",
                               markerfacecolor=color if filled else "white", markeredgewidth=1.3,
@@ -1197,8 +1252,8 @@ def write_dataset(rw, res, path, np):
         "n_compared": ("1", "reference trajectories with the same status (errors taken over these)"),
         "outside_domain": ("1", "trajectories whose x_end lies outside the ramp's domain"),
         "steps_mean": ("1", "mean accepted steps per trajectory (rampwork)"),
-        "steps_rejected_mean": ("1", "mean rejected steps per trajectory (rampwork dopri5)"),
-        "W_error_estimate_median": ("1", "median of dopri5's W_friction_error_estimate / W_friction"),
+        "steps_rejected_mean": ("1", "mean rejected steps per trajectory (rampwork's adaptive pairs)"),
+        "W_error_estimate_median": ("1", "median of the adaptive pair's W_friction_error_estimate / W_friction (dop853: sum of its 5th-order estimates)"),
     }
     data = {}
     for name, (units, long_name) in variables.items():
@@ -1211,7 +1266,7 @@ def write_dataset(rw, res, path, np):
                 if v is not None:
                     arr[i, j] = v
         data[name] = (("scene", "setting"), arr, {"units": units, "long_name": long_name})
-    methods = list(FIXED_METHODS) + [ADAPTIVE_METHOD]
+    methods = list(RAMPWORK_METHODS)
     comp = np.array([[s["compile"].get(mm, {}).get("compile_time_s", np.nan) for mm in methods]
                      for s in scenes])
     data["compile_time_s"] = (("scene", "rampwork_method"), comp,
