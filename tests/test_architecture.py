@@ -17,8 +17,8 @@ FLOORS = {
     "_version": 0, "errors": 0, "validate": 0, "core": 0,
     "ramps": 1, "schema": 1,
     "scene": 2, "io": 2, "reference": 2, "plotting": 2,
-    "scenefile": 3, "runner": 4,
-    "cli": 5, "__main__": 6, "__init__": 6,
+    "scenefile": 3, "runner": 4, "streaming": 5,
+    "cli": 6, "__main__": 7, "__init__": 7,
 }
 CORE_ALLOWED_THIRD_PARTY = {"numpy", "numba", "llvmlite"}
 

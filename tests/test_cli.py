@@ -274,7 +274,9 @@ def test_interrupt_exits_130(capsys, tmp_path, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(runner, "simulate", interrupted)
+    from rampwork import streaming
+
+    monkeypatch.setattr(streaming.SweepToFile, "run", interrupted)  # `run` streams through it
     scene = example_path(tmp_path)
     output = tmp_path / "out.nc"
     assert main(["run", str(scene), "-o", str(output)]) == 130
