@@ -176,3 +176,15 @@ def test_messages_show_plain_numbers():
         with pytest.raises(ConfigError) as info:
             call()
         assert "np." not in str(info.value), str(info.value)
+
+
+def test_config_error_survives_pickling():
+    """Errors raised on a Dask worker travel pickled to the client."""
+    import pickle
+
+    from rampwork.errors import ConfigError
+
+    error = pickle.loads(pickle.dumps(ConfigError("integrator.dt", "must be > 0, got -1")))
+    assert isinstance(error, ConfigError)
+    assert (error.where, error.problem) == ("integrator.dt", "must be > 0, got -1")
+    assert str(error) == "integrator.dt: must be > 0, got -1"

@@ -11,3 +11,7 @@ class ConfigError(ValueError):
         self.where = where
         self.problem = problem
         super().__init__(f"{where}: {problem}")
+
+    def __reduce__(self):
+        # so that an error raised on a Dask worker reaches the client intact
+        return type(self), (self.where, self.problem)
