@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from . import status as st
-from .control import ERROR_FLOOR, ERROR_TINY, FACTOR_MIN, PI_DOPRI5, log2_approx, step_factor
+from .control import ERROR_FLOOR, ERROR_TINY, PI_DOPRI5, log2_approx, step_factor
 from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
 from .physics import acceleration, normal_term
 

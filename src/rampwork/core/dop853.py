@@ -506,75 +506,24 @@ def _interpolant(delta, h, k, extra):
     """One component's seven interpolant coefficients (dop853.f's rcont1..8
     less the start value) from its increment delta over the step, its 13
     stage rates k and the three extra stages' rates."""
+    # the rates that enter D1..D4 (stages 1, 6-13 and the three extra ones)
+    rates = (k[0], k[5], k[6], k[7], k[8], k[9], k[10], k[11], k[12],
+             extra[0], extra[1], extra[2])
     return (
         delta,
         fma(h, k[0], -delta),
         fma(-h, k[12] + k[0], 2.0 * delta),
-        h
-        * _dot12(
-            D1,
-            k[0],
-            k[5],
-            k[6],
-            k[7],
-            k[8],
-            k[9],
-            k[10],
-            k[11],
-            k[12],
-            extra[0],
-            extra[1],
-            extra[2],
-        ),
-        h
-        * _dot12(
-            D2,
-            k[0],
-            k[5],
-            k[6],
-            k[7],
-            k[8],
-            k[9],
-            k[10],
-            k[11],
-            k[12],
-            extra[0],
-            extra[1],
-            extra[2],
-        ),
-        h
-        * _dot12(
-            D3,
-            k[0],
-            k[5],
-            k[6],
-            k[7],
-            k[8],
-            k[9],
-            k[10],
-            k[11],
-            k[12],
-            extra[0],
-            extra[1],
-            extra[2],
-        ),
-        h
-        * _dot12(
-            D4,
-            k[0],
-            k[5],
-            k[6],
-            k[7],
-            k[8],
-            k[9],
-            k[10],
-            k[11],
-            k[12],
-            extra[0],
-            extra[1],
-            extra[2],
-        ),
+        h * _dot_rates(D1, rates),
+        h * _dot_rates(D2, rates),
+        h * _dot_rates(D3, rates),
+        h * _dot_rates(D4, rates),
     )
+
+
+@jit
+def _dot_rates(c, r):
+    """``_dot12`` over a 12-tuple of rates."""
+    return _dot12(c, r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11])
 
 
 def dop853_dense_point(dense, h, theta, component):
