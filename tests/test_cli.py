@@ -181,8 +181,14 @@ def test_run_summary(capsys, tmp_path):
     output = tmp_path / "summary.nc"
     assert main(["run", str(scene), "-o", str(output)]) == 0
     out = capsys.readouterr().out
-    for fragment in ("trajectories  12", "compile time", "run time", "trajectory-steps/s", "status",
-                     "stuck 2", "exited 10", str(output)):
+    for fragment in ("trajectories  12", "compile time", "run time", "trajectories/s, closed form",
+                     "kernel        closed form", "status", "stuck 2", "exited 10", str(output)):
+        assert fragment in out, out
+    # the same scene stepped (a straight ramp's closed form turned off)
+    stepped = tmp_path / "stepped.nc"
+    assert main(["run", str(scene), "-o", str(stepped), "--set", "integrator.closed_form=false"]) == 0
+    out = capsys.readouterr().out
+    for fragment in ("trajectory-steps/s", "kernel        stepping: rk4", "stuck 2", "exited 10"):
         assert fragment in out, out
 
 

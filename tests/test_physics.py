@@ -83,9 +83,13 @@ def straight_exact(slope, x0, v0, mu_k, mu_s, g=G, domain=STRAIGHT_DOMAIN):
 
 
 def straight_scene(method="rk4", dt=1e-3, **kwargs):
+    """A straight-ramp scene stepped with ``method``, or solved in closed form
+    (``method="closed_form"``, the default for straight ramps)."""
     kwargs.setdefault("x0", 0.0)
+    integrator = (rw.Integrator() if method == "closed_form"
+                  else rw.Integrator(method, dt, closed_form=False))
     return rw.Scene(ramp=rw.Ramp.create("straight", slope=-0.3, domain=STRAIGHT_DOMAIN),
-                    integrator=rw.Integrator(method, dt), **kwargs)
+                    integrator=integrator, **kwargs)
 
 
 def straight_tolerances(method, exact, dt):
@@ -98,7 +102,7 @@ def straight_tolerances(method, exact, dt):
     then off by that x error over the speed.  The bounds below are twice those
     leading errors."""
     t_end, v_end = exact["t"], exact["v"]
-    if method == "rk4":
+    if method in ("rk4", "closed_form"):
         return dict(t=2e-12 * max(1.0, t_end), x=2e-12 * max(1.0, abs(exact["x"])),
                     v=2e-12 * max(1.0, abs(v_end)))
     x_tol = exact["a_max"] * dt * t_end + 1e-12
@@ -111,7 +115,7 @@ def _cases(cases):
     return rw.Sweep.cases(slope=columns[0], x0=columns[1], v0=columns[2], mu_k=columns[3], mu_s=columns[4])
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", METHODS + ("closed_form",))
 def test_straight_ramp_closed_form(method):
     dt = 1e-3
     ds = run(straight_scene(method, dt), _cases(STRAIGHT_CASES))

@@ -20,7 +20,7 @@ SCENE = '[ramp]\nfamily = "parabola"\na = 0.5\n\n[sweep]\nmu = [0.1, 0.2]\n'
 EXPECTED_OUTPUTS = [
     "status", "t_end", "x_end", "v_end", "W_friction", "W_energy", "W_linear", "W_excess",
     "W_path", "energy_balance_error", "convexity_mean", "path_length_x", "n_reversals",
-    "x_lift_off", "steps", "steps_rejected", "W_friction_error_estimate",
+    "x_lift_off", "x_lift_off_paper", "steps", "steps_rejected", "W_friction_error_estimate",
 ]  # fmt: skip
 
 
@@ -86,6 +86,10 @@ def _assert_identical_values(a: xr.Dataset, b: xr.Dataset):
 
 def test_outputs_order_and_dtypes():
     assert list(schema.OUTPUTS) == EXPECTED_OUTPUTS
+    # optional outputs only where they apply
+    assert "x_lift_off_paper" not in schema.output_names(True)
+    assert "W_friction_error_estimate" not in schema.output_names(False, ("x_lift_off_paper",))
+    assert "x_lift_off_paper" in schema.output_names(False, ("x_lift_off_paper",))
     assert schema.OUTPUTS["status"].dtype == "int8"
     assert schema.OUTPUTS["n_reversals"].dtype == "int32"
     assert schema.OUTPUTS["steps"].dtype == "int64"

@@ -257,10 +257,17 @@ def cmd_run(args) -> int:
     run_s = float(attrs.get("run_time_s", float("nan")))
     compile_s = float(attrs.get("compile_time_s", float("nan")))
     steps = int(attrs["trajectory_steps"])
-    rate = f"{_si(steps / run_s)} trajectory-steps/s" if run_s > 0 else "trajectory-steps/s n/a"
-    print(f"trajectories  {int(attrs['n_trajectories']):,}")
+    n_trajectories = int(attrs["n_trajectories"])
+    if int(attrs.get("kernel_closed_form", 0)):  # solved exactly: nothing stepped
+        rate = (f"{_si(n_trajectories / run_s)} trajectories/s" if run_s > 0
+                else "trajectories/s n/a") + ", closed form, no steps"
+    else:
+        rate = (f"{_si(steps / run_s)} trajectory-steps/s" if run_s > 0
+                else "trajectory-steps/s n/a") + f", {steps:,} steps"
+    print(f"trajectories  {n_trajectories:,}")
+    print(f"kernel        {attrs.get('kernel_effects', '')}")
     print(f"compile time  {_format_seconds(compile_s)}")
-    print(f"run time      {_format_seconds(run_s)}  ({rate}, {steps:,} steps)")
+    print(f"run time      {_format_seconds(run_s)}  ({rate})")
     print(f"status        {_format_counts(counts)}")
     print(f"wrote         {output}")
     return EXIT_OK
@@ -285,6 +292,7 @@ def cmd_check(args) -> int:
     dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
     print(f"sweep         {_sweep_shape(sweep)}; {dims}")
     print(f"trajectories  {plan.size:,}")
+    print(f"kernel        {'; '.join(plan.effects)}")
     return EXIT_OK
 
 

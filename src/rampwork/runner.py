@@ -22,6 +22,7 @@ import xarray as xr
 
 from . import schema
 from .core import kernel as K
+from .core import straight
 from .core.status import STATUS_NAMES
 from .errors import ConfigError
 from .ramps import Ramp
@@ -50,6 +51,8 @@ class RunPlan:
     size: int
     check_contact: bool
     carry_slope: bool
+    closed_form: bool  # a straight ramp solved exactly, without stepping
+    friction: bool  # mu_k > 0 somewhere: the kernel has a friction branch
 
     @functools.cached_property
     def axis_arrays(self) -> dict[str, np.ndarray]:
@@ -57,10 +60,42 @@ class RunPlan:
         return {name: np.asarray(values) for name, values in self.sweep.axes}
 
     @property
+    def paper_criterion(self) -> bool:
+        return "x_lift_off_paper" in self.scene.diagnostics
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return schema.output_names(self.scene.integrator.adaptive, self.scene.diagnostics)
+
+    @property
     def kernel_key(self):
         scene = self.scene
+        if self.closed_form:
+            return (scene.ramp.spec.key, "closed_form", self.paper_criterion)
         return (scene.ramp.spec.key, scene.integrator.method, scene.contact == "one_sided",
-                self.check_contact, self.carry_slope)
+                self.check_contact, self.carry_slope, self.paper_criterion)
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """What the compiled kernel simulates, in words (for attributes and the CLI)."""
+        scene = self.scene
+        if self.closed_form:
+            solver = "closed form (straight ramp: constant acceleration between events)"
+        else:
+            solver = f"stepping: {scene.integrator.method}"
+        effects = [solver, "kinetic friction" if self.friction else "no friction (mu_k = 0)"]
+        if self.closed_form:
+            effects.append("contact never lost (n = g > 0)")
+        elif scene.contact == "two_sided":
+            effects.append("two-sided contact (bead on a wire)" + (
+                ", sign switches of n" if self.check_contact else ", n > 0 known in advance"))
+        else:
+            effects.append("one-sided contact, " + (
+                "lift-off check" if self.check_contact else "no lift-off check (f'' >= 0)"))
+        effects += [f"diagnostic {name}" for name in scene.diagnostics]
+        if scene.record.enabled:
+            effects.append("trajectory recording")
+        return tuple(effects)
 
 
 # ------------------------------------------------------------------------------
@@ -134,7 +169,12 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     sign = spec.curvature_sign(values, scene.ramp.domain, shared)
     check_contact = not (sign is not None and sign >= 0)
     carry_slope = scene.ramp.family not in CHEAP_FAMILIES
-    return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope)
+    # f'' == 0 everywhere: f' is constant, the motion has a closed form
+    closed_form = scene.integrator.closed_form and sign == 0
+    mu_k = axes.get("mu", axes.get("mu_k", (scene.friction.mu_k,)))
+    friction = bool(max(mu_k) > 0.0)
+    return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope, closed_form,
+                   friction)
 
 
 def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
@@ -170,10 +210,17 @@ def get_kernel(plan: RunPlan):
         return _KERNELS[key], 0.0
     started = time.perf_counter()
     spec = plan.scene.ramp.spec
+    if plan.closed_form:
+        kernels = straight.build_closed_form(spec.height, spec.slope_curvature, name=spec.key,
+                                             paper_criterion=plan.paper_criterion,
+                                             cache=spec.cacheable)
+        _KERNELS[key] = kernels
+        return kernels, time.perf_counter() - started
     kernels = K.build_kernel(
         plan.scene.integrator.method, spec.height, spec.slope_curvature, name=spec.key,
         one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
-        carry_slope=plan.carry_slope, cache=spec.cacheable)
+        carry_slope=plan.carry_slope, paper_criterion=plan.paper_criterion,
+        cache=spec.cacheable)
     _KERNELS[key] = kernels
     return kernels, time.perf_counter() - started
 
@@ -219,7 +266,7 @@ def prepare(plan: RunPlan) -> Prepared:
 def empty_results(plan: RunPlan, n: int) -> dict[str, np.ndarray]:
     """Uninitialised arrays for the plan's output variables, ``n`` long."""
     return {name: np.empty(n, dtype=schema.OUTPUTS[name].np_dtype)
-            for name in schema.output_names(plan.scene.integrator.adaptive)}
+            for name in plan.output_names}
 
 
 def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
@@ -324,7 +371,8 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
     weight = mass * g  # m g: the straight-ramp estimates' force per unit mu
     copies = {"status": K.OUT_STATUS, "t_end": K.OUT_T, "x_end": K.OUT_X, "v_end": K.OUT_V,
               "convexity_mean": K.OUT_CONVEXITY, "path_length_x": K.OUT_PATH,
-              "n_reversals": K.OUT_NREV, "x_lift_off": K.OUT_XLIFT, "steps": K.OUT_STEPS,
+              "n_reversals": K.OUT_NREV, "x_lift_off": K.OUT_XLIFT,
+              "x_lift_off_paper": K.OUT_XLIFT_PAPER, "steps": K.OUT_STEPS,
               "steps_rejected": K.OUT_NREJ}
     for name, row in copies.items():
         if name in out:
@@ -438,7 +486,7 @@ def dataset_layout(plan: RunPlan) -> DatasetLayout:
         coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.asarray(values), attrs)
     if sweep.kind == "cases" and sweep.axes:
         coords["case"] = ("case", np.arange(plan.size), {"long_name": "case number", "units": "1"})
-    attrs = {name: schema.output_attrs(name) for name in schema.output_names(plan.scene.integrator.adaptive)}
+    attrs = {name: schema.output_attrs(name) for name in plan.output_names}
     return DatasetLayout(tuple(dims), tuple(shape), attrs, coords)
 
 
@@ -512,6 +560,8 @@ def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
             "contact": scene.contact,
             "sweep_kind": plan.sweep.kind,
             "kernel_checks_contact": int(plan.check_contact),
+            "kernel_closed_form": int(plan.closed_form),
+            "kernel_effects": "; ".join(plan.effects),
             "n_trajectories": plan.size,
             "trajectory_steps": steps,
             "compile_time_s": compile_seconds,

@@ -26,6 +26,9 @@ DEFAULT_RTOL = 1e-6
 RTOL_RANGE = (1e-14, 0.1)
 ATOL_RANGE = (1e-20, 1.0)
 CONTACTS = ("one_sided", "two_sided")
+#: optional per-trajectory diagnostics a scene may ask for (each adds an
+#: output variable and the code that computes it; nothing otherwise)
+DIAGNOSTICS = ("x_lift_off_paper",)
 SWEEP_KINDS = ("grid", "cases")
 #: sweep axes that are not ramp parameters (schema.AXES holds their units)
 SCENE_AXES = ("mu", "mu_k", "mu_s", "x0", "v0", "m", "g")
@@ -64,6 +67,10 @@ class Integrator:
     ``atol`` default ``rtol``: SI units, so for metre-scale ramps both read as
     relative); ``dt`` is then its first step (default: estimated per
     trajectory) and ``dt_max`` its largest (default: no limit).
+
+    ``closed_form`` (default True): where the scene has an exact solution (a
+    straight ramp: constant acceleration between events), use it instead of
+    stepping; False steps with ``method`` anyway, e.g. to measure its error.
     """
 
     method: str = "rk4"
@@ -71,9 +78,13 @@ class Integrator:
     rtol: float | None = None
     atol: float | None = None
     dt_max: float | None = None
+    closed_form: bool = True
 
     def __post_init__(self):
         validate.choice("integrator.method", self.method, METHODS)
+        if not isinstance(self.closed_form, (bool, np.bool_)):
+            raise ConfigError("integrator.closed_form", f"expected true or false, got {self.closed_form!r}")
+        object.__setattr__(self, "closed_form", bool(self.closed_form))
         if self.method in ADAPTIVE_STEPPERS:
             rtol = DEFAULT_RTOL if self.rtol is None else validate.real("integrator.rtol", self.rtol)
             if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
@@ -110,7 +121,8 @@ class Integrator:
         return {**STEPPERS, **ADAPTIVE_STEPPERS}[self.method][1]
 
     def settings(self) -> dict:
-        """The integrator's settings that apply (for attributes and scene files)."""
+        """The integrator's numeric settings that apply (for attributes and
+        scene files; ``closed_form`` apart)."""
         if not self.adaptive:
             return {"method": self.method, "dt": self.dt}
         values = {"method": self.method, "rtol": self.rtol, "atol": self.atol}
@@ -162,7 +174,10 @@ class Record:
 class Scene:
     """One physical set-up.  Start values ``x0`` (m), ``v0`` (m/s, horizontal
     velocity dx/dt), mass ``m`` (kg) and gravity ``g`` (m/s^2) are the values
-    used where a sweep does not set them."""
+    used where a sweep does not set them.  ``diagnostics`` names optional
+    outputs to compute (:data:`DIAGNOSTICS`): ``x_lift_off_paper``, where the
+    paper's lift-off criterion (eq. 26) would first report lift-off, beside
+    the contact-force ``x_lift_off``."""
 
     ramp: Ramp
     friction: Friction = field(default_factory=Friction)
@@ -175,6 +190,7 @@ class Scene:
     contact: str = "one_sided"
     record: Record = field(default_factory=Record)
     title: str = "rampwork simulation"
+    diagnostics: tuple[str, ...] = ()
 
     def __post_init__(self):
         if not isinstance(self.ramp, Ramp):
@@ -190,6 +206,12 @@ class Scene:
         t_max = validate.positive("t_max", self.t_max)
         object.__setattr__(self, "t_max", t_max)
         validate.choice("contact", self.contact, CONTACTS)
+        if isinstance(self.diagnostics, str) or not isinstance(self.diagnostics, (tuple, list)):
+            raise ConfigError("diagnostics", f"expected a list of names ({', '.join(DIAGNOSTICS)}), "
+                              f"got {self.diagnostics!r}")
+        for k, name in enumerate(self.diagnostics):
+            validate.choice(f"diagnostics[{k}]", name, DIAGNOSTICS)
+        object.__setattr__(self, "diagnostics", tuple(dict.fromkeys(self.diagnostics)))
         if not isinstance(self.title, str):
             raise ConfigError("title", f"expected a string, got {self.title!r}")
         if (not self.integrator.adaptive

@@ -16,6 +16,7 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     g = 9.81           # m/s^2                                    (default 9.81)
     t_max = 30.0       # s, stop a trajectory still moving then   (default 60)
     contact = "one_sided"   # or "two_sided" (bead on a wire)     (default one_sided)
+    diagnostics = ["x_lift_off_paper"]  # optional extra outputs    (default none)
 
     [ramp]             # required
     family = "quadratic"    # straight | quadratic | circular_bowl | circular_dome
@@ -38,6 +39,8 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     # rtol = 1e-8      # relative tolerance on x, v and the work integrals (default 1e-6)
     # atol = 1e-8      # absolute tolerance, SI units (default: rtol)
     # dt_max = 0.1     # s, the largest step (default: none)
+    closed_form = true # a straight ramp is solved exactly, without stepping;
+                       # false steps anyway (to measure a method's error)
 
     [record]           # optional: record a few whole trajectories
     count = 4          # trajectories spread evenly over the sweep (or indices = [...])
@@ -94,7 +97,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .ramps import CALLABLE, FAMILIES, Ramp
-from .scene import SCENE_AXES, Friction, Integrator, Record, Scene, Sweep
+from .scene import DIAGNOSTICS, SCENE_AXES, Friction, Integrator, Record, Scene, Sweep
 
 __all__ = [
     "MAX_AXIS_POINTS",
@@ -115,10 +118,10 @@ MAX_TRAJECTORIES = 10**9
 #: what a wrong path such as /dev/zero or a multi-gigabyte file can cost
 MAX_SCENE_BYTES = 64 << 20
 
-TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact",
+TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact", "diagnostics",
             "ramp", "friction", "integrator", "record", "sweep")
 FRICTION_KEYS = ("mu_k", "mu_s")
-INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max")
+INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max", "closed_form")
 RECORD_KEYS = ("count", "every", "max_samples", "indices")
 SWEEP_KEYS = ("kind", "axes", "n", "seed")
 FILE_SWEEP_KINDS = ("grid", "cases", "random")
@@ -346,6 +349,12 @@ def _scene(data: dict) -> Scene:
             kwargs[key] = _number(key, data[key], sweepable=key in SCENE_AXES)
     if "contact" in data:
         kwargs["contact"] = _string("contact", data["contact"])
+    if "diagnostics" in data:
+        names = data["diagnostics"]
+        if not isinstance(names, list):
+            raise ConfigError("diagnostics", f"expected a list of names ({', '.join(DIAGNOSTICS)}), "
+                              f"got {_short(names)}")
+        kwargs["diagnostics"] = tuple(_string(f"diagnostics[{k}]", name) for k, name in enumerate(names))
 
     friction = _table("friction", data.get("friction", {}))
     _check_keys("friction", friction, FRICTION_KEYS,
@@ -358,9 +367,14 @@ def _scene(data: dict) -> Scene:
     args: dict[str, Any] = {}
     if "method" in integrator:
         args["method"] = _string("integrator.method", integrator["method"])
-    for key in INTEGRATOR_KEYS[1:]:
+    for key in ("dt", "rtol", "atol", "dt_max"):
         if key in integrator:
             args[key] = _number(f"integrator.{key}", integrator[key])
+    if "closed_form" in integrator:
+        value = integrator["closed_form"]
+        if not isinstance(value, bool):
+            raise ConfigError("integrator.closed_form", f"expected true or false, got {_short(value)}")
+        args["closed_form"] = value
     kwargs["integrator"] = Integrator(**args)
 
     record = _table("record", data.get("record", {}))
@@ -613,6 +627,8 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
     for key in ("v0", "m", "g", "t_max"):
         lines.append(f"{key} = {_toml_float(key, getattr(scene, key))}")
     lines.append(f"contact = {_toml_string(scene.contact)}")
+    if scene.diagnostics:
+        lines.append("diagnostics = [" + ", ".join(_toml_string(n) for n in scene.diagnostics) + "]")
 
     ramp = scene.ramp.to_dict()
     lines += ["", "[ramp]", f"family = {_toml_string(ramp.pop('family'))}",
@@ -630,6 +646,8 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
     for key, value in integrator.settings().items():
         lines.append(f"{key} = " + (_toml_string(value) if key == "method"
                                     else _toml_float(f"integrator.{key}", value)))
+    if not integrator.closed_form:
+        lines.append("closed_form = false")
     record = scene.record
     lines += ["", "[record]", f"count = {int(record.count)}", f"every = {int(record.every)}",
               f"max_samples = {int(record.max_samples)}"]

@@ -168,6 +168,14 @@ _OUTPUT_LIST = (
         "horizontal position of lift-off",
         "x where the normal force reached zero on a one-sided ramp; NaN where no lift-off happened",
     ),
+    _f(
+        "x_lift_off_paper",
+        "m",
+        "horizontal position where the paper's lift-off criterion first holds (diagnostic)",
+        "x where y'' <= -g (the paper's eq. 26) first held: it differs from the contact-force "
+        "x_lift_off where d mu_k f' > 1 (sliding up a steep slope: it reports lift-off while the "
+        "surface still pushes); NaN where it never held; only when the scene asks for it",
+    ),
     _i(
         "steps",
         "int64",
@@ -191,11 +199,15 @@ _OUTPUT_LIST = (
 
 #: outputs that only adaptive methods produce
 ADAPTIVE_OUTPUTS = ("W_friction_error_estimate",)
+#: outputs computed only when a scene asks for them (Scene.diagnostics)
+DIAGNOSTIC_OUTPUTS = ("x_lift_off_paper",)
 
 
-def output_names(adaptive: bool) -> tuple[str, ...]:
+def output_names(adaptive: bool, diagnostics: tuple[str, ...] = ()) -> tuple[str, ...]:
     """The per-trajectory variables of a run, in dataset order."""
-    return tuple(name for name in OUTPUTS if adaptive or name not in ADAPTIVE_OUTPUTS)
+    return tuple(name for name in OUTPUTS
+                 if (adaptive or name not in ADAPTIVE_OUTPUTS)
+                 and (name in diagnostics or name not in DIAGNOSTIC_OUTPUTS))
 
 OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OUTPUT_LIST}
 

@@ -46,10 +46,15 @@ ADAPTIVE = False  # an embedded pair with per-lane step sizes (adaptive.py)
 SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
 CHAINS = 2  # lane-loop halves run side by side (1: one after the other)
 UNROLL = 1  # fixed steps per lane visit, state held in registers
+PAPER_CRITERION = False  # record where the paper's eq. (26) would report lift-off
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
- trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane) = (None,) * 24
+ trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan) = (None,) * 25
+
+#: samples of f' per mode where the paper's criterion is looked for (then
+#: bisected to rounding); a sign change narrower than a sample can be missed
+PAPER_SAMPLES = 64
 
 
 # ------------------------------------------------------------------------------
@@ -295,6 +300,12 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     j = np.int64(lanes[TRAJ * LANES + i])
     x = lanes[X * LANES + i]
     v = lanes[V * LANES + i]
+    x_paper = np.nan
+    if PAPER_CRITERION:
+        paper_scan(lanes, i, x, shared)
+        x_paper = lanes[XP * LANES + i]
+        if status == st.LIFTED_OFF and math.isnan(x_paper):
+            x_paper = x_lift  # n = 0 there: y'' = -g, so eq. (26) holds too
     p0 = lanes[P0 * LANES + i]
     p1 = lanes[P1 * LANES + i]
     p2 = lanes[P2 * LANES + i]
@@ -316,6 +327,7 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     outputs[OUT_CONVEXITY, j] = lanes[K * LANES + i] / path if path > 0.0 else lanes[FPP0 * LANES + i]
     outputs[OUT_NREV, j] = lanes[NREV * LANES + i]
     outputs[OUT_XLIFT, j] = x_lift
+    outputs[OUT_XLIFT_PAPER, j] = x_paper
     outputs[OUT_STEPS, j] = lanes[STEPS * LANES + i]
     outputs[OUT_NREJ, j] = lanes[NREJ * LANES + i]
     outputs[OUT_WORK_ERROR, j] = lanes[EEST * LANES + i]
@@ -387,6 +399,9 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[EEST * LANES + i] = 0.0
     lanes[PENDING * LANES + i] = 0.0
     lanes[D * LANES + i] = 0.0
+    if PAPER_CRITERION:
+        lanes[XP * LANES + i] = np.nan
+        lanes[PXM * LANES + i] = x
     rebase(lanes, i, 0.0, settings)
     lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
     # divergence bound: the speed can never exceed what the energy allows
@@ -532,6 +547,8 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
         lanes[X * LANES + i] = settings[SET_XHI]
     elif kind == EV_EXIT_LO:
         lanes[X * LANES + i] = settings[SET_XLO]
+    if PAPER_CRITERION:  # the mode ends here: look for eq. (26) along it
+        paper_scan(lanes, i, lanes[X * LANES + i], shared)
     rebase(lanes, i, t_event, settings)
     if kind == EV_TIMEOUT:
         finish_lane(lanes, i, st.TIMEOUT, np.nan, outputs, shared)
@@ -561,6 +578,47 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
         lanes[NREV * LANES + i] += 1.0
     set_mode(lanes, i, direction)
     return True
+
+
+def _paper_holds(lanes, i, x, shared):
+    """Whether the paper's lift-off criterion (eq. 26, y'' <= -g) holds at x
+    in lane i's mode.  y'' + g = n (1 - q f') / (1 + f'^2) with q = d mu_k s_n,
+    and n keeps its sign s_n within a mode: so it holds where
+    s_n (1 - q f'(x)) <= 0, a condition on x alone."""
+    fp, _ = ramp_slope_curvature(x, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
+                                 lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+    return lanes[SN * LANES + i] * (1.0 - lanes[Q * LANES + i] * fp) <= 0.0
+
+
+def _paper_scan(lanes, i, x_end, shared):
+    """A diagnostic beside the contact-force criterion (DESIGN §1): the first
+    x of the mode's path from PXM to ``x_end`` where eq. (26) holds, into XP
+    unless it held before.  Because the condition depends on x alone within
+    a mode, it is found by sampling f' along the path and bisecting on x, to
+    rounding, without touching the integration.  It differs from the
+    contact-force lift-off where d mu_k f' > 1 (sliding up a steep slope)."""
+    x_start = lanes[PXM * LANES + i]
+    lanes[PXM * LANES + i] = x_end
+    if not math.isnan(lanes[XP * LANES + i]) or lanes[D * LANES + i] == 0.0:
+        return
+    previous = x_start
+    for k in range(PAPER_SAMPLES + 1):
+        x = x_end if k == PAPER_SAMPLES else x_start + (x_end - x_start) * (k / PAPER_SAMPLES)
+        if _paper_holds(lanes, i, x, shared):
+            if k > 0:
+                # bisect [previous (does not hold), x (holds)] down to adjacent floats
+                outside = previous
+                for _ in range(1100):
+                    middle = 0.5 * (outside + x)
+                    if middle == outside or middle == x:
+                        break
+                    if _paper_holds(lanes, i, middle, shared):
+                        x = middle
+                    else:
+                        outside = middle
+            lanes[XP * LANES + i] = x
+            return
+        previous = x
 
 
 def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
@@ -722,7 +780,7 @@ def _no_adaptive_start(lanes, i, settings, shared):
 def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
                  one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
                  lanes: int = 64, substeps: int | None = None, chains: int = 2,
-                 unroll: int | None = None,
+                 unroll: int | None = None, paper_criterion: bool = False,
                  cache: bool = True):
     """Compile (or load from numba's on-disk cache) the kernels for one scene.
 
@@ -737,13 +795,14 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     2 lane-loop halves side by side) and ``unroll`` (fixed steps per lane
     visit, state in registers; default 2 for the first-order methods) are
     tuning knobs
-    that do not change results;
+    that do not change results; ``paper_criterion`` records where the
+    paper's eq. (26) first holds (output row OUT_XLIFT_PAPER; NaN without it);
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
     adaptive = method in ADAPTIVE_STEPPERS
     carry_slope = carry_slope or adaptive
     flags = (("one" if one_sided else "two") + ("_contact" if check_contact else "")
-             + ("_carry" if carry_slope else ""))
+             + ("_carry" if carry_slope else "") + ("_paper" if paper_criterion else ""))
     if substeps is None:
         substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
     if unroll is None:
@@ -764,6 +823,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "SUBSTEPS": substeps,
         "CHAINS": chains,
         "UNROLL": unroll,
+        "PAPER_CRITERION": paper_criterion,
     }
 
     def add(key, function, **options):
@@ -801,6 +861,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("start_adaptive", _no_adaptive_start),
             ("fixed_step_lane", _fixed_step_lane),
         )
+    if paper_criterion:
+        add("_paper_holds", _paper_holds, **no_refcount)
+        add("paper_scan", _paper_scan, **no_refcount)
     for key, function in method_parts + (
         ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
         ("new_lanes", _new_lanes),

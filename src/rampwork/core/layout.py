@@ -14,10 +14,12 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # stage, carried over from the last stage); EEST, the sum of the accepted
 # steps' error estimates of the friction work; PENDING, 1 while the lane's
 # step holds an event (or its step size collapsed); T is then the current time.
+# The paper's lift-off criterion (a diagnostic, when asked for): XP, the x
+# where it first held (NaN before); PXM, the x up to which it has been checked.
 (X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
  STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
- H, LERR, REJ, NREJ, A1, EEST, PENDING) = range(37)
-N_FIELDS = 37
+ H, LERR, REJ, NREJ, A1, EEST, PENDING, XP, PXM) = range(39)
+N_FIELDS = 39
 # After the lanes, a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
@@ -30,8 +32,9 @@ N_INPUTS = 9
 
 # --- per-trajectory outputs (per unit mass): rows of float64 (N_OUTPUTS, N) ----
 (OUT_STATUS, OUT_T, OUT_X, OUT_V, OUT_WORK, OUT_ENERGY_LOSS, OUT_PATH,
- OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS, OUT_NREJ, OUT_WORK_ERROR) = range(13)
-N_OUTPUTS = 13
+ OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS, OUT_NREJ, OUT_WORK_ERROR,
+ OUT_XLIFT_PAPER) = range(14)
+N_OUTPUTS = 14
 
 # --- scalar settings: float64 array ---------------------------------------------
 # SET_DT: the fixed step, or an adaptive method's first step (0: estimate it);
