@@ -230,9 +230,6 @@ def test_an_endless_scene_file_is_refused_after_a_bounded_read(capsys, no_runs):
     error_line(capsys, "/dev/zero", f"larger than {scenefile.MAX_SCENE_BYTES >> 20} MiB")
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "streaming.SweepToFile: an empty output name raises ValueError from Path.with_name "
-    "(\"PosixPath('.') has an empty name\") instead of a one-line error"))
 def test_an_empty_output_name(tmp_path, capsys, no_runs):
     scene = write_scene(tmp_path, BASE)
     assert main(["run", str(scene), "-o", ""]) == 2

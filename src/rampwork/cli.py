@@ -215,7 +215,8 @@ def _run_error(args, error: ConfigError) -> ConfigError:
 
     if error.where in _RUN_OPTIONS:
         return ConfigError(_RUN_OPTIONS[error.where], error.problem)
-    if error.where in (str(Path(args.output)), str(partial_path(args.output))):
+    output = Path(args.output)
+    if error.where == str(output) or (output.name and error.where == str(partial_path(output))):
         return error
     return ConfigError(args.scene, f"{error.where}: {error.problem}")
 

@@ -134,6 +134,10 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     size = sweep.size
     axes = dict(sweep.axes)
     lo, hi = scene.ramp.domain
+    for k, index in enumerate(scene.record.indices or ()):
+        if index >= size:  # refused before the run, not after it
+            raise ConfigError(f"record.indices[{k}]", f"{index} is beyond the sweep's {size:,} "
+                              f"trajectories (flat indices 0 .. {size - 1:,})")
 
     x0 = axes.get("x0")
     if x0 is None:
@@ -493,10 +497,7 @@ def dataset_layout(plan: RunPlan) -> DatasetLayout:
 def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
     record = plan.scene.record
     if record.indices:
-        indices = np.array(record.indices, dtype=np.int64)
-        if indices.max() >= plan.size:
-            raise ConfigError("record.indices", f"{int(indices.max())} is beyond the sweep's "
-                              f"{plan.size} trajectories")
+        indices = np.array(record.indices, dtype=np.int64)  # checked by plan_run
     else:
         count = min(record.count, plan.size)
         indices = np.unique(np.linspace(0, plan.size - 1, count).round().astype(np.int64))
