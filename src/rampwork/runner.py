@@ -50,6 +50,12 @@ class RunPlan:
     size: int
     check_contact: bool
     carry_slope: bool
+    drag_linear: bool = False  # compile air drag's linear term (some b > 0 in the run)
+    drag_quadratic: bool = False  # and its quadratic term (some c > 0)
+
+    @property
+    def drag(self) -> bool:
+        return self.drag_linear or self.drag_quadratic
 
     @functools.cached_property
     def axis_arrays(self) -> dict[str, np.ndarray]:
@@ -60,7 +66,7 @@ class RunPlan:
     def kernel_key(self):
         scene = self.scene
         return (scene.ramp.spec.key, scene.integrator.method, scene.contact == "one_sided",
-                self.check_contact, self.carry_slope)
+                self.check_contact, self.carry_slope, self.drag_linear, self.drag_quadratic)
 
 
 # ------------------------------------------------------------------------------
@@ -113,6 +119,9 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     for name in ("mu", "mu_k", "mu_s"):
         if name in axes and min(axes[name]) < 0:
             raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
+    for name in ("drag_linear", "drag_quadratic"):
+        if name in axes and min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
     for name in ("m", "g"):
         if name in axes and min(axes[name]) <= 0:
             raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
@@ -134,7 +143,11 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     sign = spec.curvature_sign(values, scene.ramp.domain, shared)
     check_contact = not (sign is not None and sign >= 0)
     carry_slope = scene.ramp.family not in CHEAP_FAMILIES
-    return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope)
+    # air drag is compiled in only where some trajectory of the run has it
+    drag_linear = bool(max(axes.get("drag_linear", (scene.drag.linear,))) > 0)
+    drag_quadratic = bool(max(axes.get("drag_quadratic", (scene.drag.quadratic,))) > 0)
+    return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope,
+                   drag_linear, drag_quadratic)
 
 
 def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
@@ -173,7 +186,8 @@ def get_kernel(plan: RunPlan):
     kernels = K.build_kernel(
         plan.scene.integrator.method, spec.height, spec.slope_curvature, name=spec.key,
         one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
-        carry_slope=plan.carry_slope, cache=spec.cacheable)
+        carry_slope=plan.carry_slope, drag_linear=plan.drag_linear,
+        drag_quadratic=plan.drag_quadratic, cache=spec.cacheable)
     _KERNELS[key] = kernels
     return kernels, time.perf_counter() - started
 
@@ -219,7 +233,7 @@ def prepare(plan: RunPlan) -> Prepared:
 def empty_results(plan: RunPlan, n: int) -> dict[str, np.ndarray]:
     """Uninitialised arrays for the plan's output variables, ``n`` long."""
     return {name: np.empty(n, dtype=schema.OUTPUTS[name].np_dtype)
-            for name in schema.output_names(plan.scene.integrator.adaptive)}
+            for name in schema.output_names(plan.scene.integrator.adaptive, plan.drag)}
 
 
 def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
@@ -292,6 +306,8 @@ def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:
     else:
         inputs[K.IN_MUK] = column("mu_k", scene.friction.mu_k)
         inputs[K.IN_MUS] = column("mu_s", scene.friction.mu_s)
+    inputs[K.IN_DRAG_B] = column("drag_linear", scene.drag.linear)
+    inputs[K.IN_DRAG_C] = column("drag_quadratic", scene.drag.quadratic)
     spec = scene.ramp.spec
     base = scene.ramp.param_dict()
     params = {name: column(name, base[name]) for name in spec.parameter_names}
@@ -330,7 +346,7 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
         if name in out:
             out[name][...] = raw[row]  # casts to the schema's dtype
     per_mass = {"W_friction": K.OUT_WORK, "W_energy": K.OUT_ENERGY_LOSS,
-                "W_friction_error_estimate": K.OUT_WORK_ERROR}
+                "W_friction_error_estimate": K.OUT_WORK_ERROR, "W_drag": K.OUT_DRAG_WORK}
     for name, row in per_mass.items():
         if name in out:
             np.multiply(mass, raw[row], out=out[name])
@@ -345,7 +361,11 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
     if "W_path" in out:
         np.multiply(mu_k * weight, raw[K.OUT_PATH], out=out["W_path"])
     if "energy_balance_error" in out:
-        np.subtract(w_friction, mass * raw[K.OUT_ENERGY_LOSS], out=out["energy_balance_error"])
+        if "W_drag" in out:  # a run with air drag: friction and drag share the energy lost
+            np.subtract(w_friction + mass * raw[K.OUT_DRAG_WORK], mass * raw[K.OUT_ENERGY_LOSS],
+                        out=out["energy_balance_error"])
+        else:
+            np.subtract(w_friction, mass * raw[K.OUT_ENERGY_LOSS], out=out["energy_balance_error"])
     return out
 
 
@@ -438,7 +458,8 @@ def dataset_layout(plan: RunPlan) -> DatasetLayout:
         coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.asarray(values), attrs)
     if sweep.kind == "cases" and sweep.axes:
         coords["case"] = ("case", np.arange(plan.size), {"long_name": "case number", "units": "1"})
-    attrs = {name: schema.output_attrs(name) for name in schema.output_names(plan.scene.integrator.adaptive)}
+    attrs = {name: schema.output_attrs(name)
+             for name in schema.output_names(plan.scene.integrator.adaptive, plan.drag)}
     return DatasetLayout(tuple(dims), tuple(shape), attrs, coords)
 
 
@@ -510,6 +531,8 @@ def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
             "integrator_adaptive": int(scene.integrator.adaptive),
             "t_max": scene.t_max,
             "contact": scene.contact,
+            **({"drag_linear": scene.drag.linear, "drag_quadratic": scene.drag.quadratic}
+               if plan.drag else {}),
             "sweep_kind": plan.sweep.kind,
             "kernel_checks_contact": int(plan.check_contact),
             "n_trajectories": plan.size,
