@@ -121,15 +121,15 @@ def bowl_scene(integrator, **kwargs) -> rw.Scene:
     ("euler", dict(dt=1e-4), 2e-3),
     ("semi_implicit_euler", dict(dt=1e-4), 2e-3),
     ("rk4", dict(dt=1e-3), 1e-9),
-    ("dopri5", dict(rtol=1e-10, atol=1e-12), 1e-7),
-    ("dop853", dict(rtol=1e-12, atol=1e-14), 1e-9),
+    ("dopri5", dict(rtol=1e-10, atol=1e-12), 1e-8),
+    ("dop853", dict(rtol=1e-12, atol=1e-14), 1e-11),
 ])
 def test_energy_balance_with_friction_and_drag(method, settings, tolerance):
     """W_friction + W_drag equals the mechanical energy lost, to the method's
     accuracy (relative to the energy lost), on trajectories with reversals."""
     ds = rw.simulate(bowl_scene(rw.Integrator(method, **settings)), BOWL_SWEEP, threads=1)
     w_f, w_d, w_e = ds.W_friction.values, ds.W_drag.values, ds.W_energy.values
-    assert ds.n_reversals.values.max() >= 3
+    assert ds.n_reversals.values.max() >= 2 and (ds.n_reversals.values > 0).mean() > 0.5
     assert (w_f > 0).all() and (w_d > 0).all() and (w_e > 0).all()
     error = w_f + w_d - w_e
     assert np.allclose(ds.energy_balance_error.values, error, rtol=1e-12, atol=1e-15)
@@ -140,8 +140,12 @@ def test_energy_balance_with_friction_and_drag(method, settings, tolerance):
 # ----------------------------------------------------------------------------
 # against the scipy reference
 # ----------------------------------------------------------------------------
-REFERENCE_CASES = rw.Sweep.random(6, seed=7, x0=(-0.9, 0.9), v0=(-4.0, 4.0), mu=(0.1, 0.3),
-                                  drag_linear=(0.0, 1.0), drag_quadratic=(0.0, 1.5))
+# stops after 1-3 reversals, exits, and one trajectory without drag
+REFERENCE_CASES = rw.Sweep.cases(x0=[-0.9, 0.5, 0.0, 0.8, -0.3, 0.95, 0.6],
+                                 v0=[0.0, -2.0, 3.0, 2.5, -4.0, 1.0, 5.0],
+                                 mu=[0.1, 0.2, 0.3, 0.1, 0.15, 0.25, 0.1],
+                                 drag_linear=[0.3, 0.0, 0.8, 0.2, 0.1, 0.5, 0.0],
+                                 drag_quadratic=[0.5, 1.2, 0.0, 0.1, 0.2, 0.3, 0.0])
 
 
 def _reference_check(reference, scene, sweep, tolerance):
@@ -161,7 +165,7 @@ def test_reference_on_a_bowl(reference, method, settings, tolerance):
     """Stops, reversals and exits with both kinds of drag and friction."""
     ds = _reference_check(reference, bowl_scene(rw.Integrator(method, **settings)),
                           REFERENCE_CASES, tolerance)
-    assert len(set(ds.status.values.tolist())) >= 2
+    assert set(ds.status.values.tolist()) == {1, 2} and ds.n_reversals.values.max() == 3
 
 
 def test_reference_lift_off_on_a_dome(reference):
