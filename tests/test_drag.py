@@ -160,6 +160,7 @@ def _reference_check(reference, scene, sweep, tolerance):
 @pytest.mark.parametrize("method, settings, tolerance", [
     ("rk4", dict(dt=1e-3), 1e-8),
     ("dopri5", dict(rtol=1e-12, atol=1e-12), 1e-8),
+    ("dop853", dict(rtol=1e-13, atol=1e-13), 1e-9),
 ])
 def test_reference_on_a_bowl(reference, method, settings, tolerance):
     """Stops, reversals and exits with both kinds of drag and friction."""
@@ -168,10 +169,11 @@ def test_reference_on_a_bowl(reference, method, settings, tolerance):
     assert set(ds.status.values.tolist()) == {1, 2} and ds.n_reversals.values.max() == 3
 
 
-def test_reference_lift_off_on_a_dome(reference):
-    """The drag work at a lift-off located on dopri5's dense output."""
+@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
+def test_reference_lift_off_on_a_dome(reference, method):
+    """The drag work at a lift-off located on the pair's dense output."""
     scene = rw.Scene(ramp=rw.Ramp.create("circular_dome", radius=1.0, domain=(-0.9, 0.9)),
-                     friction=rw.Friction(0.1), integrator=rw.Integrator("dopri5", rtol=1e-12),
+                     friction=rw.Friction(0.1), integrator=rw.Integrator(method, rtol=1e-12),
                      x0=-0.3, t_max=10.0, drag=rw.Drag(0.4, 0.6))
     sweep = rw.Sweep.cases(v0=[0.8, 1.5, 2.5, 3.5, -1.0])
     ds = _reference_check(reference, scene, sweep, 1e-8)
@@ -180,17 +182,6 @@ def test_reference_lift_off_on_a_dome(reference):
                                reference.reference_sweep(scene, sweep, rtol=1e-13,
                                                          atol=1e-13)["x_lift_off"],
                                atol=1e-8)
-
-
-@pytest.mark.slow
-def test_reference_dop853_two_sided_sine(reference):
-    """DOP853 (its dense output's drag component) on contact switches."""
-    scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.3, amplitude=0.05, wavenumber=6.0,
-                                         domain=(0.0, 4.0)),
-                     friction=rw.Friction(0.15), integrator=rw.Integrator("dop853", rtol=1e-13),
-                     x0=0.5, t_max=6.0, contact="two_sided", drag=rw.Drag(0.2, 0.3))
-    sweep = rw.Sweep.random(6, seed=2, v0=(-4.0, 4.0), drag_quadratic=(0.0, 1.0))
-    _reference_check(reference, scene, sweep, 1e-8)
 
 
 # ----------------------------------------------------------------------------
