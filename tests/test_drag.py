@@ -281,6 +281,21 @@ def test_dataset_variables_and_attributes():
     assert ds.W_drag.values[1] > ds.W_drag.values[0] > 0
 
 
+def test_netcdf_file_written_chunk_by_chunk(tmp_path):
+    """A streamed file holds W_drag and the scene with its drag, and reads
+    back equal to the in-memory run."""
+    scene = flat_scene("linear", rw.Integrator("rk4", dt=1e-3))
+    sweep = rw.Sweep.grid(drag_linear=[0.1, B, 1.5], v0=[1.0, -2.0])
+    path = rw.run_to_file(scene, sweep, tmp_path / "drag.nc", chunk_size=2, threads=1)
+    stored = rw.open_dataset(path)
+    memory = rw.simulate(scene, sweep, threads=1)
+    np.testing.assert_array_equal(stored.W_drag.values, memory.W_drag.values)
+    np.testing.assert_array_equal(stored.energy_balance_error.values,
+                                  memory.energy_balance_error.values)
+    assert stored.W_drag.attrs["units"] == "J" and stored.drag_linear.attrs["units"] == "s-1"
+    assert parse_scene(stored.attrs["rampwork_scene"]) == (scene, sweep)
+
+
 def test_scene_file_round_trip():
     scene = flat_scene("quadratic", rw.Integrator("dopri5", rtol=1e-9)).replace(
         drag=rw.Drag(0.25, 0.125))
