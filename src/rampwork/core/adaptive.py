@@ -44,6 +44,7 @@ N_DIP_SAMPLES = 16
 # bound per scene by kernel.build_kernel
 step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
+ONE_SIDED = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel.py)
 LANES = 64
 PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
@@ -140,6 +141,13 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
         # size halved) unless it already shows the lift-off as an event.
         margin = sn * (n_low if sn > 0.0 else n_high)
         rough = holds & (not n_high - n_low <= CONTACT_VARIATION * margin)
+        if not ONE_SIDED:
+            # Just after a two-sided switch n starts from 0 and grows: its
+            # variation is then always several times its smallest stage value,
+            # whatever the step size, so the test would shrink the step to
+            # nothing.  The first step of the new mode is exempt (a sign change
+            # at any stage or at its end is still caught by `holds`).
+            rough = rough & (not lanes[FRESH * LANES + i] > 0.0)
         accepted = accepted & (not rough)
     commit = accepted & (not event) & (not frozen)
     hold = frozen | (accepted & event)
@@ -159,6 +167,8 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     lanes[FPP * LANES + i] = fpp7 if commit else fpp
     lanes[A1 * LANES + i] = a7 if commit else a1
     lanes[T * LANES + i] = t + h if commit else t
+    if CHECK_CONTACT and not ONE_SIDED:
+        lanes[FRESH * LANES + i] = 0.0 if commit else lanes[FRESH * LANES + i]
     lanes[STEPS * LANES + i] += 1.0 if commit else 0.0
     lanes[EEST * LANES + i] += abs(ew) if commit else 0.0
     lanes[LERR * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit

@@ -427,6 +427,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[NREJ * LANES + i] = 0.0
     lanes[EEST * LANES + i] = 0.0
     lanes[PENDING * LANES + i] = 0.0
+    lanes[FRESH * LANES + i] = 0.0
     lanes[D * LANES + i] = 0.0
     if PAPER_CRITERION:
         lanes[XP * LANES + i] = np.nan
@@ -593,6 +594,7 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
             return False
         # two-sided: the sign inside |n| flips and the motion goes on
         lanes[SN * LANES + i] = -lanes[SN * LANES + i]
+        lanes[FRESH * LANES + i] = 1.0  # n starts from 0 (adaptive.py's contact control)
         set_mode(lanes, i, lanes[D * LANES + i])
         return True
     # reversal: v reached 0 and the rest rule decides

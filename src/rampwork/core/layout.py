@@ -16,12 +16,13 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # step holds an event (or its step size collapsed); T is then the current time.
 # The paper's lift-off criterion (a diagnostic, when asked for): XP, the x
 # where it first held (NaN before); PXM, the x up to which it has been checked.
+# FRESH: 1 from a two-sided contact switch until the next accepted step.
 # Air drag (kernels built with drag only): DRAG_B, DRAG_C, the coefficients b
 # (1/s) and c (1/m); WD, the work against drag per unit mass.
 (X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
  STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
- H, LERR, REJ, NREJ, A1, EEST, PENDING, DRAG_B, DRAG_C, WD, XP, PXM) = range(42)
-N_FIELDS = 42
+ H, LERR, REJ, NREJ, A1, EEST, PENDING, DRAG_B, DRAG_C, WD, XP, PXM, FRESH) = range(43)
+N_FIELDS = 43
 # After the lanes, a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
