@@ -254,6 +254,58 @@ def test_no_lift_off_check_on_convex_ramps_changes_nothing(method):
     assert set(results[0][K.OUT_STATUS].astype(int)) >= {STUCK}
 
 
+@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5",
+                                    pytest.param("dop853", marks=pytest.mark.slow)])
+def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
+    """mu_k = 0 everywhere: the runner compiles no kinetic friction (the
+    acceleration without its friction term, no friction work); the kernel with
+    friction, run on the same mu = 0 inputs, gives the same results (to the
+    sign of a zero: array_equal treats -0.0 == 0.0).  On a dome with lift-offs,
+    reversals, stops (mu_s > 0) and exits, one- and two-sided."""
+    integrator = (rw.Integrator(method, rtol=1e-8) if method in ("dopri5", "dop853")
+                  else rw.Integrator(method, 1e-3))
+    for contact in ("one_sided", "two_sided"):
+        scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=6.0,
+                                             domain=(-1.0, 1.0)),
+                         friction=rw.Friction(0.0, 0.3), integrator=integrator, contact=contact,
+                         t_max=20.0)
+        sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -0.5, 0.0, 1.0, 4.0])
+        plan = runner.plan_run(scene, sweep)
+        assert not plan.friction
+        ds = rw.simulate(scene, sweep)
+        assert "no friction" in ds.attrs["kernel_effects"]
+        assert np.all(ds.W_friction.values == 0.0)
+        inputs = runner.chunk_inputs(plan, 0, plan.size)
+        settings = runner._settings(scene)
+        spec = scene.ramp.spec
+        results = []
+        for friction in (False, True):
+            run_batch, _ = K.build_kernel(method, spec.height, spec.slope_curvature, name=spec.key,
+                                          one_sided=contact == "one_sided",
+                                          check_contact=plan.check_contact,
+                                          carry_slope=plan.carry_slope, friction=friction)
+            out = np.zeros((K.N_OUTPUTS, plan.size))
+            run_batch(inputs, settings, out, scene.ramp.shared_array(), 64)
+            results.append(out)
+        assert np.array_equal(results[0], results[1], equal_nan=True), contact
+        statuses = set(results[0][K.OUT_STATUS].astype(int))
+        assert {STUCK, EXITED} <= statuses, statuses
+        if contact == "one_sided":
+            assert LIFTED_OFF in statuses
+
+
+def test_effects_in_words_and_refused_combinations():
+    bowl = rw.Scene(ramp=rw.Ramp.create("quadratic", curvature=1.0, domain=(-1.0, 1.0)), x0=0.5)
+    words = runner.plan_run(bowl.replace(friction=rw.Friction(0.2), drag=rw.Drag(quadratic=0.1))).effects
+    assert "kinetic friction" in words and "air drag (quadratic)" in words
+    assert "one-sided contact, no lift-off check (f'' >= 0)" in words
+    # drag makes a straight ramp stepped
+    assert not runner.plan_run(rw.Scene(ramp=straight(0.1), x0=0.0, drag=rw.Drag(linear=0.5))).closed_form
+    # eq. (26) is the paper's, for friction without drag
+    with pytest.raises(ConfigError, match="diagnostics.*drag"):
+        rw.simulate(bowl.replace(drag=rw.Drag(linear=0.5), diagnostics=PAPER))
+
+
 # ------------------------------------------------------------------------------
 # compile cache: a second process loads the kernel instead of compiling it
 # ------------------------------------------------------------------------------

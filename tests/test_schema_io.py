@@ -21,6 +21,7 @@ EXPECTED_OUTPUTS = [
     "status", "t_end", "x_end", "v_end", "W_friction", "W_energy", "W_linear", "W_excess",
     "W_path", "energy_balance_error", "convexity_mean", "path_length_x", "n_reversals",
     "x_lift_off", "x_lift_off_paper", "steps", "steps_rejected", "W_friction_error_estimate",
+    "W_drag",
 ]  # fmt: skip
 
 
@@ -100,7 +101,7 @@ def test_outputs_order_and_dtypes():
 
 
 UDUNITS_LIKE = re.compile(r"^(1|[A-Za-z]+(-?\d+)?( [A-Za-z]+(-?\d+)?)*)$")
-ALLOWED_UNITS = {"1", "s", "m", "m s-1", "m s-2", "J", "m-1", "kg"}
+ALLOWED_UNITS = {"1", "s", "m", "m s-1", "m s-2", "J", "m-1", "kg", "s-1"}
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,7 @@ from .core.status import STATUS_TABLE
 from .errors import ConfigError
 from .io import open_dataset, write_netcdf
 from .ramps import FAMILIES, Ramp
-from .scene import Friction, Integrator, Record, Scene, Sweep
+from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
 from .runner import simulate
 from .streaming import run_to_file
 
@@ -25,6 +25,7 @@ __all__ = [
     "__version__",
     "ConfigError",
     "FAMILIES",
+    "Drag",
     "Friction",
     "Integrator",
     "Ramp",

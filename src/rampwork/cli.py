@@ -147,6 +147,8 @@ def _warn_shadowed(overrides, sweep) -> None:
             axes = {key}
         elif key in ("friction.mu_k", "friction.mu_s"):
             axes = {"mu", key.split(".")[1]}
+        elif key in ("drag.linear", "drag.quadratic"):
+            axes = {"drag_" + key.split(".")[1]}
         elif key.startswith("ramp."):
             axes = {key[5:]}
         else:
@@ -289,6 +291,9 @@ def cmd_check(args) -> int:
           + f" on [{ramp.domain[0]!r}, {ramp.domain[1]!r}] m")
     print(f"friction      mu_k = {scene.friction.mu_k!r}, mu_s = {scene.friction.mu_s!r}; "
           f"contact {scene.contact}")
+    if scene.drag.enabled:
+        print(f"drag          linear = {scene.drag.linear!r} s-1, "
+              f"quadratic = {scene.drag.quadratic!r} m-1")
     print(f"integrator    {integrator.describe()}, t_max = {scene.t_max!r} s{steps}")
     dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
     print(f"sweep         {_sweep_shape(sweep)}; {dims}")

@@ -19,6 +19,14 @@ The model (per unit mass, state ``(x, v)`` with ``v = dx/dt``)::
     W' = mu_k |n| |v|                         friction power (work integrated as a state)
     s' = |v|                                  horizontal path length
 
+With air drag (``scene.drag``: b = linear in 1/s, c = quadratic in 1/m) the
+tangential force -m (b u + c u**2), u = |v| sqrt(1 + f'**2) the speed along the
+path, adds its component along x after projection on the tangent (1, f'),
+divided by the mass term (1 + f'**2)::
+
+    a_drag = -d (b u + c u**2) sqrt(1 + f'**2) / (1 + f'**2) = -(b + c u) v
+    D' = (b u + c u**2) u                     drag power (drag work as a state)
+
 Within one integration *segment* the direction ``d = sign(v)`` and the contact
 sign ``s_n = sign(n)`` are held fixed, so ``|n| = s_n n`` and ``|v| = d v`` and the
 right-hand side is smooth; every place where one of them would change is an
@@ -75,7 +83,7 @@ __all__ = [
 
 #: keys of the dict returned by :func:`reference_trajectory` that hold one number
 RESULT_KEYS = ("status", "t_end", "x_end", "v_end", "W_friction", "W_energy", "W_path", "path",
-               "n_reversals", "x_lift_off", "n_segments", "nfev")
+               "n_reversals", "x_lift_off", "n_segments", "nfev", "W_drag")
 
 # event indices within one segment, in tie-break order (exit, contact, reversal)
 _EV_EXIT_LO, _EV_EXIT_HI, _EV_CONTACT, _EV_REVERSAL = range(4)
@@ -164,10 +172,17 @@ def ramp_functions(ramp: Ramp) -> tuple[Callable[[float], float], Callable[[floa
 # ----------------------------------------------------------------------------
 # one trajectory
 # ----------------------------------------------------------------------------
+def _unpack(y) -> tuple[float, ...]:
+    """(x, v, W, path, drag work) from a state of four (no drag) or five."""
+    values = [float(z) for z in y]
+    return tuple(values) if len(values) == 5 else (*values, 0.0)
+
+
 def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None = None,
                          mu_k: float | None = None, mu_s: float | None = None, *,
                          m: float | None = None, g: float | None = None, t_max: float | None = None,
                          contact: str | None = None, ramp: Ramp | None = None,
+                         drag_linear: float | None = None, drag_quadratic: float | None = None,
                          method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
                          max_segments: int = 100_000, keep_segments: bool = False) -> dict:
     """Integrate one trajectory of ``scene`` to high accuracy with scipy.
@@ -187,6 +202,9 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
     * ``W_friction`` (J, integrated ``m mu_k |n| |v|``), ``W_energy`` (J,
       mechanical energy lost, ``m (E0 - E_end)``), ``W_path`` (J,
       ``mu_k m g path``), ``path`` (m, ``integral |v| dt``),
+    * ``W_drag`` (J, integrated drag power ``m (b u + c u^2) u``, u the speed
+      along the path; 0 without drag; ``drag_linear``, ``drag_quadratic``
+      override the scene's ``drag``),
     * ``n_reversals``, ``x_lift_off`` (NaN unless lifted off),
     * ``n_segments`` and ``nfev`` (cost: segments integrated, right-hand-side
       evaluations),
@@ -196,7 +214,8 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
       for rest events ``margin = |f'(x)| - mu_s`` (how far the rest rule's
       decision is from its threshold, useful to flag ill-conditioned cases),
     * with ``keep_segments``: ``segments``, a list of
-      ``(t, y)`` arrays (``y`` rows x, v, W per unit mass, path) per segment.
+      ``(t, y)`` arrays (``y`` rows x, v, W per unit mass, path, drag work
+      per unit mass) per segment.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"expected a rampwork.Scene, got {type(scene).__name__}")
@@ -218,6 +237,13 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
     if contact not in ("one_sided", "two_sided"):
         raise ValueError(f"contact must be 'one_sided' or 'two_sided', got {contact!r}")
     one_sided = contact == "one_sided"
+    drag_b = float(scene.drag.linear if drag_linear is None else drag_linear)
+    drag_c = float(scene.drag.quadratic if drag_quadratic is None else drag_quadratic)
+    if drag_b < 0 or drag_c < 0:
+        raise ValueError(f"need drag coefficients >= 0, got {drag_b}, {drag_c}")
+    # the drag work is a fifth state only with drag (without it the error norm,
+    # and so every result, stays that of four states)
+    with_drag = drag_b > 0 or drag_c > 0
     lo, hi = ramp.domain
     if not lo <= x <= hi:
         raise ValueError(f"x0 = {x} outside the domain [{lo}, {hi}]")
@@ -231,6 +257,7 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
     t = 0.0
     work = 0.0
     path = 0.0
+    drag_work = 0.0
     n_rev = 0
     nfev = 0
     n_segments = 0
@@ -245,14 +272,14 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
         return fp, fpp
 
     def finish(status, t, x, v, x_lift=math.nan):
-        finite = all(math.isfinite(z) for z in (t, x, v, work, path))
+        finite = all(math.isfinite(z) for z in (t, x, v, work, path, drag_work))
         if not finite:
             status = DIVERGED
         w_energy = mass * (e0 - energy(x, v)) if finite else math.nan
         out = dict(status=int(status), t_end=float(t), x_end=float(x), v_end=float(v),
                    W_friction=mass * work, W_energy=w_energy, W_path=mu_k * mass * g * path,
                    path=path, n_reversals=n_rev, x_lift_off=float(x_lift), n_segments=n_segments,
-                   nfev=nfev, events=events)
+                   nfev=nfev, events=events, W_drag=mass * drag_work)
         if keep_segments:
             out["segments"] = segments
         return out
@@ -295,7 +322,16 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
             x_, v_ = y[0], y[1]
             fp_, fpp_ = slope_curvature(x_)
             n_ = g + v_ * v_ * fpp_
-            return [v_, -n_ * (fp_ + q) / (1.0 + fp_ * fp_), q * n_ * v_, d * v_]
+            stretch = math.sqrt(1.0 + fp_ * fp_)  # ds/dx along the ramp
+            u = d * v_ * stretch  # speed along the path (>= 0 in the segment)
+            drag_force = drag_b * u + drag_c * u * u  # per unit mass, against the motion
+            # its generalised force on x, (force along the tangent) . (1, f'), over 1 + f'^2
+            a_drag = -d * drag_force * stretch / (1.0 + fp_ * fp_)
+            rates = [v_, -n_ * (fp_ + q) / (1.0 + fp_ * fp_), q * n_ * v_, d * v_]
+            if with_drag:
+                rates[1] += a_drag
+                rates.append(drag_force * u)
+            return rates
 
         def ev_exit_lo(_t, y):
             return y[0] - lo
@@ -316,7 +352,8 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
 
         try:
             with np.errstate(all="ignore"):
-                sol = solve_ivp(rhs, (t, t_max), [x, v, work, path], method=method, rtol=rtol,
+                start = [x, v, work, path] + ([drag_work] if with_drag else [])
+                sol = solve_ivp(rhs, (t, t_max), start, method=method, rtol=rtol,
                                 atol=atol, events=handlers)
         except (ValueError, ZeroDivisionError, OverflowError, FloatingPointError) as error:
             note("diverged", t, x, v, message=str(error))
@@ -330,7 +367,7 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
             return finish(DIVERGED, float(sol.t[-1]), float(sol.y[0, -1]), float(sol.y[1, -1]))
 
         if sol.status == 0:  # reached t_max
-            t, (x, v, work, path) = t_max, map(float, sol.y[:, -1])
+            t, (x, v, work, path, drag_work) = t_max, _unpack(sol.y[:, -1])
             note("timeout", t, x, v)
             return finish(TIMEOUT, t, x, v)
 
@@ -339,7 +376,7 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
         for k in range(4):
             if len(sol.t_events[k]) and sol.t_events[k][0] < t_event:
                 kind, t_event = k, float(sol.t_events[k][0])
-        x, v, work, path = map(float, sol.y_events[kind][0])
+        x, v, work, path, drag_work = _unpack(sol.y_events[kind][0])
         t = t_event
 
         if kind in (_EV_EXIT_LO, _EV_EXIT_HI):
@@ -403,6 +440,9 @@ def reference_sweep(scene: Scene, sweep: Sweep | None = None, **options) -> dict
     results: dict[str, list] = {key: [] for key in RESULT_KEYS}
     for point in _sweep_points(scene, sweep):
         kwargs = {name: point[name] for name in _SCENE_NAMES if name in point}
+        for name in ("drag_linear", "drag_quadratic"):
+            if name in point:
+                kwargs[name] = point[name]
         if "mu" in point:
             kwargs["mu_k"] = kwargs["mu_s"] = point["mu"]
         else:

@@ -53,6 +53,12 @@ class RunPlan:
     carry_slope: bool
     closed_form: bool  # a straight ramp solved exactly, without stepping
     friction: bool  # mu_k > 0 somewhere: the kernel has a friction branch
+    drag_linear: bool = False  # compile air drag's linear term (some b > 0 in the run)
+    drag_quadratic: bool = False  # and its quadratic term (some c > 0)
+
+    @property
+    def drag(self) -> bool:
+        return self.drag_linear or self.drag_quadratic
 
     @functools.cached_property
     def axis_arrays(self) -> dict[str, np.ndarray]:
@@ -65,7 +71,7 @@ class RunPlan:
 
     @property
     def output_names(self) -> tuple[str, ...]:
-        return schema.output_names(self.scene.integrator.adaptive, self.scene.diagnostics)
+        return schema.output_names(self.scene.integrator.adaptive, self.scene.diagnostics, self.drag)
 
     @property
     def kernel_key(self):
@@ -73,7 +79,8 @@ class RunPlan:
         if self.closed_form:
             return (scene.ramp.spec.key, "closed_form", self.paper_criterion)
         return (scene.ramp.spec.key, scene.integrator.method, scene.contact == "one_sided",
-                self.check_contact, self.carry_slope, self.paper_criterion)
+                self.check_contact, self.carry_slope, self.paper_criterion, self.friction,
+                self.drag_linear, self.drag_quadratic)
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -92,6 +99,10 @@ class RunPlan:
         else:
             effects.append("one-sided contact, " + (
                 "lift-off check" if self.check_contact else "no lift-off check (f'' >= 0)"))
+        if self.drag:
+            effects.append("air drag (" + " and ".join(
+                kind for kind, on in (("linear", self.drag_linear), ("quadratic", self.drag_quadratic))
+                if on) + ")")
         effects += [f"diagnostic {name}" for name in scene.diagnostics]
         if scene.record.enabled:
             effects.append("trajectory recording")
@@ -152,6 +163,9 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     for name in ("mu", "mu_k", "mu_s"):
         if name in axes and min(axes[name]) < 0:
             raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
+    for name in ("drag_linear", "drag_quadratic"):
+        if name in axes and min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
     for name in ("m", "g"):
         if name in axes and min(axes[name]) <= 0:
             raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
@@ -173,12 +187,19 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     sign = spec.curvature_sign(values, scene.ramp.domain, shared)
     check_contact = not (sign is not None and sign >= 0)
     carry_slope = scene.ramp.family not in CHEAP_FAMILIES
-    # f'' == 0 everywhere: f' is constant, the motion has a closed form
-    closed_form = scene.integrator.closed_form and sign == 0
+    # air drag is compiled in only where some trajectory of the run has it
+    drag_linear = bool(max(axes.get("drag_linear", (scene.drag.linear,))) > 0)
+    drag_quadratic = bool(max(axes.get("drag_quadratic", (scene.drag.quadratic,))) > 0)
+    # f'' == 0 everywhere: f' is constant, the motion has a closed form (without drag)
+    closed_form = (scene.integrator.closed_form and sign == 0
+                   and not (drag_linear or drag_quadratic))
     mu_k = axes.get("mu", axes.get("mu_k", (scene.friction.mu_k,)))
     friction = bool(max(mu_k) > 0.0)
+    if "x_lift_off_paper" in scene.diagnostics and (drag_linear or drag_quadratic):
+        raise ConfigError("diagnostics", "x_lift_off_paper (the paper's eq. 26) is defined for "
+                          "friction without air drag; remove the drag or the diagnostic")
     return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope, closed_form,
-                   friction)
+                   friction, drag_linear, drag_quadratic)
 
 
 def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
@@ -223,8 +244,9 @@ def get_kernel(plan: RunPlan):
     kernels = K.build_kernel(
         plan.scene.integrator.method, spec.height, spec.slope_curvature, name=spec.key,
         one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
-        carry_slope=plan.carry_slope, paper_criterion=plan.paper_criterion,
-        cache=spec.cacheable)
+        carry_slope=plan.carry_slope, drag_linear=plan.drag_linear,
+        drag_quadratic=plan.drag_quadratic, paper_criterion=plan.paper_criterion,
+        friction=plan.friction, cache=spec.cacheable)
     _KERNELS[key] = kernels
     return kernels, time.perf_counter() - started
 
@@ -343,6 +365,8 @@ def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:
     else:
         inputs[K.IN_MUK] = column("mu_k", scene.friction.mu_k)
         inputs[K.IN_MUS] = column("mu_s", scene.friction.mu_s)
+    inputs[K.IN_DRAG_B] = column("drag_linear", scene.drag.linear)
+    inputs[K.IN_DRAG_C] = column("drag_quadratic", scene.drag.quadratic)
     spec = scene.ramp.spec
     base = scene.ramp.param_dict()
     params = {name: column(name, base[name]) for name in spec.parameter_names}
@@ -382,7 +406,7 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
         if name in out:
             out[name][...] = raw[row]  # casts to the schema's dtype
     per_mass = {"W_friction": K.OUT_WORK, "W_energy": K.OUT_ENERGY_LOSS,
-                "W_friction_error_estimate": K.OUT_WORK_ERROR}
+                "W_friction_error_estimate": K.OUT_WORK_ERROR, "W_drag": K.OUT_DRAG_WORK}
     for name, row in per_mass.items():
         if name in out:
             np.multiply(mass, raw[row], out=out[name])
@@ -397,7 +421,11 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
     if "W_path" in out:
         np.multiply(mu_k * weight, raw[K.OUT_PATH], out=out["W_path"])
     if "energy_balance_error" in out:
-        np.subtract(w_friction, mass * raw[K.OUT_ENERGY_LOSS], out=out["energy_balance_error"])
+        if "W_drag" in out:  # a run with air drag: friction and drag share the energy lost
+            np.subtract(w_friction + mass * raw[K.OUT_DRAG_WORK], mass * raw[K.OUT_ENERGY_LOSS],
+                        out=out["energy_balance_error"])
+        else:
+            np.subtract(w_friction, mass * raw[K.OUT_ENERGY_LOSS], out=out["energy_balance_error"])
     return out
 
 
@@ -559,6 +587,8 @@ def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
             "integrator_adaptive": int(scene.integrator.adaptive),
             "t_max": scene.t_max,
             "contact": scene.contact,
+            **({"drag_linear": scene.drag.linear, "drag_quadratic": scene.drag.quadratic}
+               if plan.drag else {}),
             "sweep_kind": plan.sweep.kind,
             "kernel_checks_contact": int(plan.check_contact),
             "kernel_closed_form": int(plan.closed_form),

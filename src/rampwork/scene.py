@@ -31,7 +31,7 @@ CONTACTS = ("one_sided", "two_sided")
 DIAGNOSTICS = ("x_lift_off_paper",)
 SWEEP_KINDS = ("grid", "cases")
 #: sweep axes that are not ramp parameters (schema.AXES holds their units)
-SCENE_AXES = ("mu", "mu_k", "mu_s", "x0", "v0", "m", "g")
+SCENE_AXES = ("mu", "mu_k", "mu_s", "x0", "v0", "m", "g", "drag_linear", "drag_quadratic")
 #: the largest flat trajectory index (int64)
 MAX_FLAT_INDEX = int(np.iinfo(np.int64).max)
 #: the most fixed steps one trajectory may take (t_max / dt)
@@ -53,6 +53,26 @@ class Friction:
             raise ConfigError("friction.mu_s", f"must be >= mu_k = {mu_k!r}, got {mu_s!r}")
         object.__setattr__(self, "mu_k", mu_k)
         object.__setattr__(self, "mu_s", mu_s)
+
+
+@dataclass(frozen=True)
+class Drag:
+    """Air drag along the path: a tangential force opposing the motion of
+    magnitude ``m (linear s' + quadratic s'^2)``, ``s'`` the speed along the
+    path; ``linear`` in 1/s, ``quadratic`` in 1/m, both >= 0 (default 0: no
+    drag, and none is simulated)."""
+
+    linear: float = 0.0
+    quadratic: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "linear", validate.nonnegative("drag.linear", self.linear))
+        object.__setattr__(self, "quadratic",
+                           validate.nonnegative("drag.quadratic", self.quadratic))
+
+    @property
+    def enabled(self) -> bool:
+        return self.linear > 0.0 or self.quadratic > 0.0
 
 
 @dataclass(frozen=True)
@@ -191,11 +211,13 @@ class Scene:
     record: Record = field(default_factory=Record)
     title: str = "rampwork simulation"
     diagnostics: tuple[str, ...] = ()
+    drag: Drag = field(default_factory=Drag)
 
     def __post_init__(self):
         if not isinstance(self.ramp, Ramp):
             raise ConfigError("ramp", f"expected a rampwork.Ramp, got {type(self.ramp).__name__}")
-        for name, kind in (("friction", Friction), ("integrator", Integrator), ("record", Record)):
+        for name, kind in (("friction", Friction), ("integrator", Integrator), ("record", Record),
+                           ("drag", Drag)):
             if not isinstance(getattr(self, name), kind):
                 raise ConfigError(name, f"expected a rampwork.{kind.__name__}, got {getattr(self, name)!r}")
         if self.x0 is not None:

@@ -30,6 +30,10 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     mu_k = 0.3
     mu_s = 0.4         # optional, defaults to mu_k; must be >= mu_k
 
+    [drag]             # optional air drag along the path, m (linear s' + quadratic s'^2)
+    linear = 0.1       # 1/s, default 0
+    quadratic = 0.05   # 1/m, default 0 (s': the speed along the path)
+
     [integrator]       # default rk4, dt = 1e-3
     method = "rk4"     # euler | semi_implicit_euler | rk4: fixed steps of dt
                        # | dopri5: adaptive (Dormand-Prince 5(4), error control)
@@ -50,7 +54,8 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     [sweep]            # optional: without it, one trajectory
     kind = "grid"      # "grid" (outer product, one dimension per axis, in file order),
                        # "cases" (all axes one length, one `case` dimension) or "random"
-    [sweep.axes]       # names: mu, mu_k, mu_s, x0, v0, m, g, or a ramp parameter
+    [sweep.axes]       # names: mu, mu_k, mu_s, x0, v0, m, g, drag_linear,
+                       # drag_quadratic, or a ramp parameter
     mu = [0.1, 0.2, 0.3]                           # explicit list
     x0 = { linspace = [-0.9, 0.9, 19] }            # start, stop, num (both ends included)
     v0 = { logspace = [-2, 1, 4] }                 # 10**start .. 10**stop, num
@@ -97,7 +102,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .ramps import CALLABLE, FAMILIES, Ramp
-from .scene import DIAGNOSTICS, SCENE_AXES, Friction, Integrator, Record, Scene, Sweep
+from .scene import DIAGNOSTICS, SCENE_AXES, Drag, Friction, Integrator, Record, Scene, Sweep
 
 __all__ = [
     "MAX_AXIS_POINTS",
@@ -119,8 +124,9 @@ MAX_TRAJECTORIES = 10**9
 MAX_SCENE_BYTES = 64 << 20
 
 TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact", "diagnostics",
-            "ramp", "friction", "integrator", "record", "sweep")
+            "ramp", "friction", "drag", "integrator", "record", "sweep")
 FRICTION_KEYS = ("mu_k", "mu_s")
+DRAG_KEYS = ("linear", "quadratic")
 INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max", "closed_form")
 RECORD_KEYS = ("count", "every", "max_samples", "indices")
 SWEEP_KEYS = ("kind", "axes", "n", "seed")
@@ -361,6 +367,12 @@ def _scene(data: dict) -> Scene:
                 "; to sweep friction list mu, mu_k or mu_s under [sweep.axes]" if "mu" in friction else "")
     kwargs["friction"] = Friction(**{key: _number(f"friction.{key}", value, sweepable=True)
                                      for key, value in friction.items()})
+
+    drag = _table("drag", data.get("drag", {}))
+    _check_keys("drag", drag, DRAG_KEYS,
+                "; to sweep drag list drag_linear or drag_quadratic under [sweep.axes]")
+    kwargs["drag"] = Drag(**{key: _number(f"drag.{key}", value, sweepable=True)
+                             for key, value in drag.items()})
 
     integrator = _table("integrator", data.get("integrator", {}))
     _check_keys("integrator", integrator, INTEGRATOR_KEYS)
@@ -641,6 +653,10 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
     friction = scene.friction
     lines += ["", "[friction]", f"mu_k = {_toml_float('friction.mu_k', friction.mu_k)}",
               f"mu_s = {_toml_float('friction.mu_s', friction.mu_s)}"]
+    drag = scene.drag
+    if drag.enabled:
+        lines += ["", "[drag]", f"linear = {_toml_float('drag.linear', drag.linear)}",
+                  f"quadratic = {_toml_float('drag.quadratic', drag.quadratic)}"]
     integrator = scene.integrator
     lines += ["", "[integrator]"]
     for key, value in integrator.settings().items():

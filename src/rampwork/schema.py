@@ -25,6 +25,7 @@ __all__ = [
     "VariableSpec",
     "OUTPUTS",
     "ADAPTIVE_OUTPUTS",
+    "DRAG_OUTPUTS",
     "output_names",
     "AXES",
     "TRAJECTORY_RECORD",
@@ -142,7 +143,9 @@ _OUTPUT_LIST = (
         "energy_balance_error",
         "J",
         "energy balance error",
-        "W_friction - W_energy: per-trajectory estimate of the integration error",
+        "W_friction - W_energy, or W_friction + W_drag - W_energy in runs with air drag "
+        "(all the mechanical energy lost goes to friction and drag): per-trajectory estimate "
+        "of the integration error",
     ),
     _f(
         "convexity_mean",
@@ -195,19 +198,30 @@ _OUTPUT_LIST = (
         "sum over the accepted steps of the embedded pair's local error estimate of W_friction "
         "(adaptive methods only; compare energy_balance_error)",
     ),
+    _f(
+        "W_drag",
+        "J",
+        "work against air drag",
+        "work done against air drag integrated along the trajectory: m times the integral of "
+        "(b s'^2 + c s'^3) dt, s' the speed along the path (runs with air drag only; "
+        "energy_balance_error is then W_friction + W_drag - W_energy)",
+    ),
 )
 
 #: outputs that only adaptive methods produce
 ADAPTIVE_OUTPUTS = ("W_friction_error_estimate",)
 #: outputs computed only when a scene asks for them (Scene.diagnostics)
 DIAGNOSTIC_OUTPUTS = ("x_lift_off_paper",)
+#: outputs that only runs with air drag produce
+DRAG_OUTPUTS = ("W_drag",)
 
 
-def output_names(adaptive: bool, diagnostics: tuple[str, ...] = ()) -> tuple[str, ...]:
+def output_names(adaptive: bool, diagnostics: tuple[str, ...] = (), drag: bool = False) -> tuple[str, ...]:
     """The per-trajectory variables of a run, in dataset order."""
     return tuple(name for name in OUTPUTS
                  if (adaptive or name not in ADAPTIVE_OUTPUTS)
-                 and (name in diagnostics or name not in DIAGNOSTIC_OUTPUTS))
+                 and (name in diagnostics or name not in DIAGNOSTIC_OUTPUTS)
+                 and (drag or name not in DRAG_OUTPUTS))
 
 OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OUTPUT_LIST}
 
@@ -225,6 +239,10 @@ _AXIS_LIST = (
     VariableSpec("v0", "m s-1", "initial horizontal velocity", "float64", "dx/dt at t = 0"),
     VariableSpec("m", "kg", "mass", "float64", "mass of the point"),
     VariableSpec("g", "m s-2", "gravitational acceleration", "float64", "gravitational acceleration"),
+    VariableSpec("drag_linear", "s-1", "linear air drag coefficient", "float64",
+                 "b in the drag force m (b s' + c s'^2) along the path, s' the speed along the path"),
+    VariableSpec("drag_quadratic", "m-1", "quadratic air drag coefficient", "float64",
+                 "c in the drag force m (b s' + c s'^2) along the path, s' the speed along the path"),
 )
 
 AXES: dict[str, VariableSpec] = {s.name: s for s in _AXIS_LIST}

@@ -29,7 +29,8 @@ import numpy as np
 from . import status as st
 from .control import ERROR_FLOOR, ERROR_TINY, PI_DOPRI5, log2_approx, step_factor
 from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
-from .physics import acceleration, normal_term
+from .jit import fma
+from .physics import acceleration, drag_rate, normal_term
 
 #: contact control: over an accepted step the normal term varies by at most
 #: this share of its smallest distance from 0 (at the stages); a step that
@@ -43,11 +44,13 @@ N_DIP_SAMPLES = 16
 # bound per scene by kernel.build_kernel
 step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
+ONE_SIDED = True
+DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel.py)
 LANES = 64
 PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
 CHAINS = 2
-(error_norm2, apply_event, rebase, finish_lane, dense_value,
- locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 11
+(error_norm2, error_norm2_drag, apply_event, rebase, finish_lane, dense_value,
+ locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 12
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -108,13 +111,22 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     t = lanes[T * LANES + i]
     w = lanes[W * LANES + i]
     k = lanes[K * LANES + i]
+    wd = lanes[WD * LANES + i]
     frozen = lanes[PENDING * LANES + i] > 0.0
-    x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high, fx, fv, fw, fk = step(
+    (x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high, fx, fv, fw, fk,
+     dwd, ed, fd) = step(
         x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
-        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,
+        lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
     w1 = w + dw
     k1 = k + dk
-    err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, fx, fv, fw, fk, rtol, atol)
+    if DRAG:
+        wd1 = wd + dwd
+        err2 = error_norm2_drag(x, v, w, k, wd, x1, v1, w1, k1, wd1, ex, ev, ew, ek, ed,
+                                fx, fv, fw, fk, fd, rtol, atol)
+    else:
+        err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, fx, fv, fw, fk, rtol,
+                           atol)
     bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
     accepted = bounded & (err2 <= 1.0)
     event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
@@ -129,6 +141,13 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
         # size halved) unless it already shows the lift-off as an event.
         margin = sn * (n_low if sn > 0.0 else n_high)
         rough = holds & (not n_high - n_low <= CONTACT_VARIATION * margin)
+        if not ONE_SIDED:
+            # Just after a two-sided switch n starts from 0 and grows: its
+            # variation is then always several times its smallest stage value,
+            # whatever the step size, so the test would shrink the step to
+            # nothing.  The first step of the new mode is exempt (a sign change
+            # at any stage or at its end is still caught by `holds`).
+            rough = rough & (not lanes[FRESH * LANES + i] > 0.0)
         accepted = accepted & (not rough)
     commit = accepted & (not event) & (not frozen)
     hold = frozen | (accepted & event)
@@ -142,10 +161,14 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     lanes[V * LANES + i] = v1 if commit else v
     lanes[W * LANES + i] = w1 if commit else w
     lanes[K * LANES + i] = k1 if commit else k
+    if DRAG:
+        lanes[WD * LANES + i] = wd1 if commit else wd
     lanes[FP * LANES + i] = fp7 if commit else fp
     lanes[FPP * LANES + i] = fpp7 if commit else fpp
     lanes[A1 * LANES + i] = a7 if commit else a1
     lanes[T * LANES + i] = t + h if commit else t
+    if CHECK_CONTACT and not ONE_SIDED:
+        lanes[FRESH * LANES + i] = 0.0 if commit else lanes[FRESH * LANES + i]
     lanes[STEPS * LANES + i] += 1.0 if commit else 0.0
     lanes[EEST * LANES + i] += abs(ew) if commit else 0.0
     lanes[LERR * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit
@@ -189,6 +212,10 @@ def _start_adaptive(lanes, i, settings, shared):
     fp1, fpp1 = ramp_slope_curvature(x1, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
                                      lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
     a_1 = acceleration(normal_term(v1, fpp1, lanes[G * LANES + i]), fp1, lanes[Q * LANES + i])
+    if DRAG:
+        kd = drag_rate(v1, fp1, lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i],
+                       lanes[D * LANES + i], DRAG_LINEAR, DRAG_QUADRATIC)
+        a_1 = fma(-kd, v1, a_1)
     d2 = math.sqrt(0.5 * (((v1 - v) / sx) ** 2 + ((a_1 - a) / sv) ** 2)) / h0
     if not math.isfinite(d2):
         d2 = 0.0
@@ -274,7 +301,8 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i],
         lanes[FPP * LANES + i], lanes[A1 * LANES + i], lanes[Q * LANES + i],
         lanes[D * LANES + i], h_end, lanes[G * LANES + i], lanes[P0 * LANES + i],
-        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
+        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,
+        lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
     sn = lanes[SN * LANES + i]
     contact = sn * normal_term(v1, fpp1, lanes[G * LANES + i]) if CHECK_CONTACT else 1.0
     contact_end = 1.0
@@ -330,6 +358,8 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             lanes[V * LANES + i] = v1
             lanes[W * LANES + i] += dense_point(dense, h_end, 1.0, 2)
             lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
+            if DRAG:
+                lanes[WD * LANES + i] += dense_point(dense, h_end, 1.0, 4)
             lanes[STEPS * LANES + i] += 1.0
             lanes[EEST * LANES + i] += abs(err_work)
             lanes[T * LANES + i] = t_now + h_end
@@ -342,6 +372,8 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 1)
         lanes[W * LANES + i] += dense_point(dense, h_end, best_theta, 2)
         lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
+        if DRAG:
+            lanes[WD * LANES + i] += dense_point(dense, h_end, best_theta, 4)
         lanes[STEPS * LANES + i] += 1.0
         lanes[EEST * LANES + i] += abs(err_work)  # the whole step's: an upper bound
     t_event = t_now + best_theta * h_end

@@ -112,3 +112,37 @@ def error_norm2_two_estimates(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, e
                               rtol, atol)
     ratio = num5 / (num5 + 0.01 * num3) if num5 > 0.0 else 0.0
     return 0.25 * num5 / denominator * ratio
+
+
+# With air drag the norm takes a fifth component, the drag work, scaled alike
+# (its own division: the four-scale common denominator above stays as it is).
+@jit
+def _drag_square(wd, wd1, err_d, rtol, atol):
+    """(err_d / scale)^2 for the drag work's estimate."""
+    e = err_d / (atol + rtol * max(abs(wd), abs(wd1)))
+    return e * e
+
+
+@jit
+def error_norm2_drag(x, v, w, k, wd, x1, v1, w1, k1, wd1, err_x, err_v, err_w, err_k, err_d,
+                     err3_x, err3_v, err3_w, err3_k, err3_d, rtol, atol):
+    """``error_norm2`` over five components: (x, v, friction work, curvature
+    integral, drag work)."""
+    numerator, denominator = _scaled_squares(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w,
+                                             err_k, rtol, atol)
+    return 0.2 * (numerator / denominator + _drag_square(wd, wd1, err_d, rtol, atol))
+
+
+@jit
+def error_norm2_two_estimates_drag(x, v, w, k, wd, x1, v1, w1, k1, wd1, err_x, err_v, err_w,
+                                   err_k, err_d, err3_x, err3_v, err3_w, err3_k, err3_d,
+                                   rtol, atol):
+    """``error_norm2_two_estimates`` over five components (with the drag work)."""
+    num5, denominator = _scaled_squares(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w,
+                                        err_k, rtol, atol)
+    num3, _ = _scaled_squares(x, v, w, k, x1, v1, w1, k1, err3_x, err3_v, err3_w, err3_k,
+                              rtol, atol)
+    sum5 = num5 / denominator + _drag_square(wd, wd1, err_d, rtol, atol)
+    sum3 = num3 / denominator + _drag_square(wd, wd1, err3_d, rtol, atol)
+    ratio = sum5 / (sum5 + 0.01 * sum3) if sum5 > 0.0 else 0.0
+    return 0.2 * sum5 * ratio

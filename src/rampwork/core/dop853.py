@@ -16,6 +16,9 @@ from .jit import fma, jit
 from .physics import normal_term
 
 _stage = None  # bound per scene by kernel.build_kernel (steppers._stage)
+DRAG = False  # air drag (bound per scene; steppers' module docstring)
+FRICTION = True  # False: mu_k = 0 everywhere, no friction work (steppers' FRICTION)
+_with_drag = None  # bound per scene (steppers._with_drag)
 
 #: interpolant coefficients per component
 N_DENSE = 7
@@ -340,48 +343,49 @@ def _dot12(c, k0, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11):
     )
 
 
-def _dop853_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared):
+def _dop853_stages(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared, b, c):
     """Stages 2..13 of one step, the 13th at the new state ``(x13, v13)``.
     Returns ``(x13, v13, fp13, velocities, accelerations, normal_terms,
-    curvatures, n_low, n_high)``, the middle four 13-tuples over the stages
-    (stage 1 is the step start: v, a1, n(v, fpp), fpp) and the last two the
-    range of the normal term over stages 2..13 (see ``steppers._dopri5_stages``)."""
+    curvatures, n_low, n_high, drag_powers)``, the middle four 13-tuples over
+    the stages (stage 1 is the step start: v, a1, n(v, fpp), fpp), then the
+    range of the normal term over stages 2..13 (see ``steppers._dopri5_stages``)
+    and the 13-tuple of drag's power (zeros without drag)."""
     x2 = fma(h, _dot1(A2, v), x)
     v2 = fma(h, _dot1(A2, a1), v)
-    _, fpp2, n2, a2 = _stage(x2, v2, q, g, p0, p1, p2, p3, shared)
+    _, fpp2, n2, a2, pd2 = _stage(x2, v2, q, g, p0, p1, p2, p3, shared, b, c, d)
     x3 = fma(h, _dot2(A3, v, v2), x)
     v3 = fma(h, _dot2(A3, a1, a2), v)
-    _, fpp3, n3, a3 = _stage(x3, v3, q, g, p0, p1, p2, p3, shared)
+    _, fpp3, n3, a3, pd3 = _stage(x3, v3, q, g, p0, p1, p2, p3, shared, b, c, d)
     x4 = fma(h, _dot2(A4, v, v3), x)
     v4 = fma(h, _dot2(A4, a1, a3), v)
-    _, fpp4, n4, a4 = _stage(x4, v4, q, g, p0, p1, p2, p3, shared)
+    _, fpp4, n4, a4, pd4 = _stage(x4, v4, q, g, p0, p1, p2, p3, shared, b, c, d)
     x5 = fma(h, _dot3(A5, v, v3, v4), x)
     v5 = fma(h, _dot3(A5, a1, a3, a4), v)
-    _, fpp5, n5, a5 = _stage(x5, v5, q, g, p0, p1, p2, p3, shared)
+    _, fpp5, n5, a5, pd5 = _stage(x5, v5, q, g, p0, p1, p2, p3, shared, b, c, d)
     x6 = fma(h, _dot3(A6, v, v4, v5), x)
     v6 = fma(h, _dot3(A6, a1, a4, a5), v)
-    _, fpp6, n6, a6 = _stage(x6, v6, q, g, p0, p1, p2, p3, shared)
+    _, fpp6, n6, a6, pd6 = _stage(x6, v6, q, g, p0, p1, p2, p3, shared, b, c, d)
     x7 = fma(h, _dot4(A7, v, v4, v5, v6), x)
     v7 = fma(h, _dot4(A7, a1, a4, a5, a6), v)
-    _, fpp7, n7, a7 = _stage(x7, v7, q, g, p0, p1, p2, p3, shared)
+    _, fpp7, n7, a7, pd7 = _stage(x7, v7, q, g, p0, p1, p2, p3, shared, b, c, d)
     x8 = fma(h, _dot5(A8, v, v4, v5, v6, v7), x)
     v8 = fma(h, _dot5(A8, a1, a4, a5, a6, a7), v)
-    _, fpp8, n8, a8 = _stage(x8, v8, q, g, p0, p1, p2, p3, shared)
+    _, fpp8, n8, a8, pd8 = _stage(x8, v8, q, g, p0, p1, p2, p3, shared, b, c, d)
     x9 = fma(h, _dot6(A9, v, v4, v5, v6, v7, v8), x)
     v9 = fma(h, _dot6(A9, a1, a4, a5, a6, a7, a8), v)
-    _, fpp9, n9, a9 = _stage(x9, v9, q, g, p0, p1, p2, p3, shared)
+    _, fpp9, n9, a9, pd9 = _stage(x9, v9, q, g, p0, p1, p2, p3, shared, b, c, d)
     x10 = fma(h, _dot7(A10, v, v4, v5, v6, v7, v8, v9), x)
     v10 = fma(h, _dot7(A10, a1, a4, a5, a6, a7, a8, a9), v)
-    _, fpp10, n10, a10 = _stage(x10, v10, q, g, p0, p1, p2, p3, shared)
+    _, fpp10, n10, a10, pd10 = _stage(x10, v10, q, g, p0, p1, p2, p3, shared, b, c, d)
     x11 = fma(h, _dot8(A11, v, v4, v5, v6, v7, v8, v9, v10), x)
     v11 = fma(h, _dot8(A11, a1, a4, a5, a6, a7, a8, a9, a10), v)
-    _, fpp11, n11, a11 = _stage(x11, v11, q, g, p0, p1, p2, p3, shared)
+    _, fpp11, n11, a11, pd11 = _stage(x11, v11, q, g, p0, p1, p2, p3, shared, b, c, d)
     x12 = fma(h, _dot9(A12, v, v4, v5, v6, v7, v8, v9, v10, v11), x)
     v12 = fma(h, _dot9(A12, a1, a4, a5, a6, a7, a8, a9, a10, a11), v)
-    _, fpp12, n12, a12 = _stage(x12, v12, q, g, p0, p1, p2, p3, shared)
+    _, fpp12, n12, a12, pd12 = _stage(x12, v12, q, g, p0, p1, p2, p3, shared, b, c, d)
     x13 = fma(h, _dot8(A13, v, v6, v7, v8, v9, v10, v11, v12), x)
     v13 = fma(h, _dot8(A13, a1, a6, a7, a8, a9, a10, a11, a12), v)
-    fp13, fpp13, n13, a13 = _stage(x13, v13, q, g, p0, p1, p2, p3, shared)
+    fp13, fpp13, n13, a13, pd13 = _stage(x13, v13, q, g, p0, p1, p2, p3, shared, b, c, d)
     n_low = min(
         min(min(min(n2, n3), min(n4, n5)), min(min(n6, n7), min(n8, n9))),
         min(min(n10, n11), min(n12, n13)),
@@ -394,7 +398,12 @@ def _dop853_stages(x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared):
     accelerations = (a1, a2, a3, a4, a5, a6, a7, a8, a9, a10, a11, a12, a13)
     normal_terms = (normal_term(v, fpp, g), n2, n3, n4, n5, n6, n7, n8, n9, n10, n11, n12, n13)
     curvatures = (fpp, fpp2, fpp3, fpp4, fpp5, fpp6, fpp7, fpp8, fpp9, fpp10, fpp11, fpp12, fpp13)
-    return x13, v13, fp13, velocities, accelerations, normal_terms, curvatures, n_low, n_high
+    pd1 = 0.0
+    if DRAG:  # a1 (carried over) has its drag already
+        _, pd1 = _with_drag(a1, v, fp, b, c, d)
+    drag_powers = (pd1, pd2, pd3, pd4, pd5, pd6, pd7, pd8, pd9, pd10, pd11, pd12, pd13)
+    return (x13, v13, fp13, velocities, accelerations, normal_terms, curvatures, n_low, n_high,
+            drag_powers)
 
 
 @jit
@@ -435,13 +444,21 @@ def _products(values, factors, scale):
     )
 
 
-def dop853_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
+def dop853_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared, b, c):
     """One DOP853 step of size h from (x, v) with FSAL acceleration a1: returns
     ``steppers.dopri5_step``'s tuple, with the third-order error estimates of
-    the four components as its last four entries."""
-    x13, v13, fp13, vel, acc, normal, curv, n_low, n_high = _dop853_stages(
-        x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared
+    the four components (err3_*) in their places, and the drag work's
+    increment and fifth- and third-order estimates last."""
+    x13, v13, fp13, vel, acc, normal, curv, n_low, n_high, drag_rate = _dop853_stages(
+        x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared, b, c
     )
+    drag = 0.0
+    err_drag = 0.0
+    err3_drag = 0.0
+    if DRAG:
+        drag = h * _weigh8(drag_rate)
+        err_drag = h * _error5(drag_rate)
+        err3_drag = h * _error3(drag_rate)
     work_rate = _products(normal, vel, 1.0)
     curvature_rate = _products(curv, vel, 1.0)
     qh = q * h
@@ -449,40 +466,43 @@ def dop853_step(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
     return (
         x13,
         v13,
-        qh * _weigh8(work_rate),
+        qh * _weigh8(work_rate) if FRICTION else 0.0,
         dh * _weigh8(curvature_rate),
         acc[12],
         fp13,
         curv[12],
         h * _error5(vel),
         h * _error5(acc),
-        qh * _error5(work_rate),
+        qh * _error5(work_rate) if FRICTION else 0.0,
         dh * _error5(curvature_rate),
         n_low,
         n_high,
         h * _error3(vel),
         h * _error3(acc),
-        qh * _error3(work_rate),
+        qh * _error3(work_rate) if FRICTION else 0.0,
         dh * _error3(curvature_rate),
+        drag,
+        err_drag,
+        err3_drag,
     )
 
 
-def dop853_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
+def dop853_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared, b, c):
     """The step's dense output and end point, for events: as
     ``steppers.dopri5_dense``, with ``N_DENSE`` coefficients per component
     (evaluated by :func:`dop853_dense_point`)."""
-    x13, v13, fp13, vel, acc, normal, curv, n_low, n_high = _dop853_stages(
-        x, v, fpp, a1, q, h, g, p0, p1, p2, p3, shared
+    x13, v13, fp13, vel, acc, normal, curv, n_low, n_high, drag_rate = _dop853_stages(
+        x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared, b, c
     )
     x14 = fma(h, _dot8(A14, vel[0], vel[6], vel[7], vel[8], vel[9], vel[10], vel[11], vel[12]), x)
     v14 = fma(h, _dot8(A14, acc[0], acc[6], acc[7], acc[8], acc[9], acc[10], acc[11], acc[12]), v)
-    _, fpp14, n14, a14 = _stage(x14, v14, q, g, p0, p1, p2, p3, shared)
+    _, fpp14, n14, a14, pd14 = _stage(x14, v14, q, g, p0, p1, p2, p3, shared, b, c, d)
     x15 = fma(h, _dot8(A15, vel[0], vel[5], vel[6], vel[7], vel[10], vel[11], vel[12], v14), x)
     v15 = fma(h, _dot8(A15, acc[0], acc[5], acc[6], acc[7], acc[10], acc[11], acc[12], a14), v)
-    _, fpp15, n15, a15 = _stage(x15, v15, q, g, p0, p1, p2, p3, shared)
+    _, fpp15, n15, a15, pd15 = _stage(x15, v15, q, g, p0, p1, p2, p3, shared, b, c, d)
     x16 = fma(h, _dot8(A16, vel[0], vel[5], vel[6], vel[7], vel[8], vel[12], v14, v15), x)
     v16 = fma(h, _dot8(A16, acc[0], acc[5], acc[6], acc[7], acc[8], acc[12], a14, a15), v)
-    _, fpp16, n16, a16 = _stage(x16, v16, q, g, p0, p1, p2, p3, shared)
+    _, fpp16, n16, a16, pd16 = _stage(x16, v16, q, g, p0, p1, p2, p3, shared, b, c, d)
     work_rate = _products(normal, vel, q)
     curvature_rate = _products(curv, vel, d)
     dense = (
@@ -498,6 +518,8 @@ def dop853_dense(x, v, fp, fpp, a1, q, d, h, g, p0, p1, p2, p3, shared):
             (d * fpp14 * v14, d * fpp15 * v15, d * fpp16 * v16),
         )
     )
+    if DRAG:
+        dense = dense + _interpolant(h * _weigh8(drag_rate), h, drag_rate, (pd14, pd15, pd16))
     return dense, x13, v13, curv[12], h * _error5(work_rate), n_low, n_high
 
 
@@ -527,9 +549,9 @@ def _dot_rates(c, r):
 
 
 def dop853_dense_point(dense, h, theta, component):
-    """Increment over [0, theta] of component 0 (x), 1 (v), 2 (friction work)
-    or 3 (curvature integral) of the dense output (dop853.f's contd8; the
-    coefficients carry h already)."""
+    """Increment over [0, theta] of component 0 (x), 1 (v), 2 (friction work),
+    3 (curvature integral) or, with drag, 4 (drag work) of the dense output
+    (dop853.f's contd8; the coefficients carry h already)."""
     o = N_DENSE * component
     rest = 1.0 - theta
     y = dense[o + 6] * theta

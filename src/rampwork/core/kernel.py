@@ -18,7 +18,9 @@ independent of those choices.
 
 The functions here are templates: ``step``, ``ramp_height``,
 ``ramp_slope_curvature``, ``ONE_SIDED`` and the helper names are globals bound
-per scene by :func:`build_kernel` through ``jit.specialise``.
+per scene by :func:`build_kernel` through ``jit.specialise``.  So is air drag
+(``DRAG_LINEAR``, ``DRAG_QUADRATIC``, ``DRAG``): a scene without it compiles
+no drag arithmetic at all (every ``if DRAG:`` block is removed).
 """
 
 from __future__ import annotations
@@ -30,8 +32,9 @@ import numpy as np
 
 from . import status as st
 from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
-from .jit import specialise
-from .physics import acceleration, departure_direction, normal_term, specific_energy
+from .jit import fma, specialise
+from .physics import (acceleration, acceleration_frictionless, departure_direction, drag_rate,
+                      normal_term, specific_energy)
 from . import adaptive as adaptive_parts
 from . import steppers
 from .steppers import ADAPTIVE_STEPPERS, STEPPERS
@@ -47,6 +50,8 @@ SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
 CHAINS = 2  # lane-loop halves run side by side (1: one after the other)
 UNROLL = 1  # fixed steps per lane visit, state held in registers
 PAPER_CRITERION = False  # record where the paper's eq. (26) would report lift-off
+FRICTION = True  # False: mu_k = 0 everywhere, no friction branch (see build_kernel)
+DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
@@ -104,6 +109,9 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
     steps = lanes[STEPS * LANES + i]
     work = lanes[W * LANES + i]
     curvature = lanes[K * LANES + i]
+    drag_b = lanes[DRAG_B * LANES + i]
+    drag_c = lanes[DRAG_C * LANES + i]
+    drag_work = lanes[WD * LANES + i]
     if CARRY_SLOPE:
         fp = lanes[FP * LANES + i]
         fpp = lanes[FPP * LANES + i]
@@ -112,9 +120,12 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
     for _ in range(UNROLL):
         if not CARRY_SLOPE:
             fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-        x1, v1, dw, dk = step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared)
+        x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared,
+                                   drag_b, drag_c)
         # dw < 0: a step too long for the mode's signs (see _event_values)
         ok = ((d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo) & (steps < limit) & (dw >= 0.0))
+        if DRAG:
+            ok = ok & (dwd >= 0.0)  # drag's power is >= 0 within a mode, as friction's
         if CHECK_CONTACT or CARRY_SLOPE:
             fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
         if CHECK_CONTACT:
@@ -123,6 +134,8 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
         v = v1 if ok else v
         work += dw if ok else 0.0
         curvature += dk if ok else 0.0
+        if DRAG:
+            drag_work += dwd if ok else 0.0
         steps = steps + 1.0 if ok else steps
         if CARRY_SLOPE:
             fp = fp1 if ok else fp
@@ -131,6 +144,8 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
     lanes[V * LANES + i] = v
     lanes[W * LANES + i] = work
     lanes[K * LANES + i] = curvature
+    if DRAG:
+        lanes[WD * LANES + i] = drag_work
     lanes[STEPS * LANES + i] = steps
     if CARRY_SLOPE:
         lanes[FP * LANES + i] = fp
@@ -174,21 +189,24 @@ def _refresh_slope(lanes, i, shared):
 
 def _trial_step(lanes, i, h, shared):
     """One step of size h from lane i's state, not committed:
-    ``(x, v, friction_work, curvature_integral)`` as the stepper returns them."""
+    ``(x, v, friction_work, curvature_integral, drag_work)`` as the stepper
+    returns them."""
     return step(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
         lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i],
         lanes[P0 * LANES + i], lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i],
-        shared)
+        shared, lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
 
 
 def _apply_step(lanes, i, h, shared):
     """One step of size h from lane i's state, committed (events only)."""
-    x1, v1, dw, dk = trial_step(lanes, i, h, shared)
+    x1, v1, dw, dk, dwd = trial_step(lanes, i, h, shared)
     lanes[X * LANES + i] = x1
     lanes[V * LANES + i] = v1
     lanes[W * LANES + i] += dw
     lanes[K * LANES + i] += dk
+    if DRAG:
+        lanes[WD * LANES + i] += dwd
     lanes[STEPS * LANES + i] += 1.0
 
 
@@ -199,12 +217,14 @@ def _event_values(lanes, i, h, settings, shared):
     the state stops being finite, passes the speed bound, or the step's
     friction work comes out negative (within a mode its integrand is
     mu |n| |v| >= 0: a step so long that its stages leave the mode's signs)."""
-    x1, v1, dw, dk = trial_step(lanes, i, h, shared)
+    x1, v1, dw, dk, dwd = trial_step(lanes, i, h, shared)
     fp1, fpp1 = ramp_slope_curvature(x1, lanes[P0 * LANES + i], lanes[P1 * LANES + i],
                                      lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared)
     bounded = (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(fp1)
                and math.isfinite(fpp1) and math.isfinite(dw) and math.isfinite(dk)
                and v1 * v1 <= lanes[VLIM2 * LANES + i] and dw >= 0.0)
+    if DRAG:  # drag's work as friction's: finite and >= 0 within a mode
+        bounded = bounded and math.isfinite(dwd) and dwd >= 0.0
     contact = (lanes[SN * LANES + i] * normal_term(v1, fpp1, lanes[G * LANES + i])
                if CHECK_CONTACT else 1.0)
     d = lanes[D * LANES + i]
@@ -331,6 +351,7 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     outputs[OUT_STEPS, j] = lanes[STEPS * LANES + i]
     outputs[OUT_NREJ, j] = lanes[NREJ * LANES + i]
     outputs[OUT_WORK_ERROR, j] = lanes[EEST * LANES + i]
+    outputs[OUT_DRAG_WORK, j] = lanes[WD * LANES + i]
     make_empty(lanes, i)
 
 
@@ -360,6 +381,11 @@ def _set_mode(lanes, i, direction):
     if ADAPTIVE:  # the first stage of the coming step (f', f'' are current)
         n = normal_term(lanes[V * LANES + i], lanes[FPP * LANES + i], lanes[G * LANES + i])
         lanes[A1 * LANES + i] = acceleration(n, lanes[FP * LANES + i], lanes[Q * LANES + i])
+        if DRAG:  # as steppers._with_drag
+            v = lanes[V * LANES + i]
+            kd = drag_rate(v, lanes[FP * LANES + i], lanes[DRAG_B * LANES + i],
+                           lanes[DRAG_C * LANES + i], direction, DRAG_LINEAR, DRAG_QUADRATIC)
+            lanes[A1 * LANES + i] = fma(-kd, v, lanes[A1 * LANES + i])
 
 
 def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
@@ -389,6 +415,9 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[P3 * LANES + i] = p3
     lanes[MUK * LANES + i] = inputs[IN_MUK, j]
     lanes[MUS * LANES + i] = inputs[IN_MUS, j]
+    lanes[DRAG_B * LANES + i] = inputs[IN_DRAG_B, j] if DRAG_LINEAR else 0.0
+    lanes[DRAG_C * LANES + i] = inputs[IN_DRAG_C, j] if DRAG_QUADRATIC else 0.0
+    lanes[WD * LANES + i] = 0.0
     lanes[W * LANES + i] = 0.0
     lanes[S * LANES + i] = 0.0
     lanes[K * LANES + i] = 0.0
@@ -398,6 +427,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[NREJ * LANES + i] = 0.0
     lanes[EEST * LANES + i] = 0.0
     lanes[PENDING * LANES + i] = 0.0
+    lanes[FRESH * LANES + i] = 0.0
     lanes[D * LANES + i] = 0.0
     if PAPER_CRITERION:
         lanes[XP * LANES + i] = np.nan
@@ -564,6 +594,7 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
             return False
         # two-sided: the sign inside |n| flips and the motion goes on
         lanes[SN * LANES + i] = -lanes[SN * LANES + i]
+        lanes[FRESH * LANES + i] = 1.0  # n starts from 0 (adaptive.py's contact control)
         set_mode(lanes, i, lanes[D * LANES + i])
         return True
     # reversal: v reached 0 and the rest rule decides
@@ -779,9 +810,10 @@ def _no_adaptive_start(lanes, i, settings, shared):
 
 def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
                  one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
+                 drag_linear: bool = False, drag_quadratic: bool = False,
                  lanes: int = 64, substeps: int | None = None, chains: int = 2,
                  unroll: int | None = None, paper_criterion: bool = False,
-                 cache: bool = True):
+                 friction: bool = True, cache: bool = True):
     """Compile (or load from numba's on-disk cache) the kernels for one scene.
 
     ``method`` is a fixed-step method of ``steppers.STEPPERS`` or an adaptive
@@ -795,14 +827,24 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     2 lane-loop halves side by side) and ``unroll`` (fixed steps per lane
     visit, state in registers; default 2 for the first-order methods) are
     tuning knobs
-    that do not change results; ``paper_criterion`` records where the
-    paper's eq. (26) first holds (output row OUT_XLIFT_PAPER; NaN without it);
+    that do not change results;
+    ``drag_linear``, ``drag_quadratic``: compile air drag's linear
+    (``IN_DRAG_B``) and quadratic (``IN_DRAG_C``) terms and the drag work
+    (``OUT_DRAG_WORK``); without them the inputs' drag rows are ignored and
+    the kernel is the same arithmetic as one built before drag existed;
+    ``paper_criterion`` records where the paper's eq. (26) first holds
+    (output row OUT_XLIFT_PAPER; NaN without it); ``friction=False`` (for
+    runs whose mu_k is 0 everywhere) compiles no kinetic friction at all:
+    the acceleration without the friction term, no friction work (the same
+    results, but perhaps the sign of a zero);
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
     adaptive = method in ADAPTIVE_STEPPERS
     carry_slope = carry_slope or adaptive
     flags = (("one" if one_sided else "two") + ("_contact" if check_contact else "")
-             + ("_carry" if carry_slope else "") + ("_paper" if paper_criterion else ""))
+             + ("_carry" if carry_slope else "") + ("_dragb" if drag_linear else "")
+             + ("_dragc" if drag_quadratic else "") + ("_paper" if paper_criterion else "")
+             + ("" if friction else "_nofriction"))
     if substeps is None:
         substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
     if unroll is None:
@@ -824,6 +866,12 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "CHAINS": chains,
         "UNROLL": unroll,
         "PAPER_CRITERION": paper_criterion,
+        "FRICTION": bool(friction),
+        # every template calls `acceleration` by this global name
+        "acceleration": acceleration if friction else acceleration_frictionless,
+        "DRAG_LINEAR": bool(drag_linear),
+        "DRAG_QUADRATIC": bool(drag_quadratic),
+        "DRAG": bool(drag_linear or drag_quadratic),
     }
 
     def add(key, function, **options):
@@ -845,6 +893,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         add("dense_output", pair.dense, **no_refcount)
         add("dense_point", pair.dense_point, **no_refcount)
         constants["error_norm2"] = pair.error_norm2  # jitted already: no scene constants
+        constants["error_norm2_drag"] = pair.error_norm2_drag
         method_parts = (
             ("contact_holds", adaptive_parts._contact_holds),
             ("attempt", adaptive_parts._attempt),
@@ -853,6 +902,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("locate_dense", adaptive_parts._locate_dense),
         )
     else:
+        add("_with_drag", steppers._with_drag, **no_refcount)
         add("step", STEPPERS[method][0], **no_refcount)
         method_parts = (
             ("start_value", _start_value), ("trial_step", _trial_step),

@@ -16,10 +16,13 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # step holds an event (or its step size collapsed); T is then the current time.
 # The paper's lift-off criterion (a diagnostic, when asked for): XP, the x
 # where it first held (NaN before); PXM, the x up to which it has been checked.
+# FRESH: 1 from a two-sided contact switch until the next accepted step.
+# Air drag (kernels built with drag only): DRAG_B, DRAG_C, the coefficients b
+# (1/s) and c (1/m); WD, the work against drag per unit mass.
 (X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
  STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
- H, LERR, REJ, NREJ, A1, EEST, PENDING, XP, PXM) = range(39)
-N_FIELDS = 39
+ H, LERR, REJ, NREJ, A1, EEST, PENDING, DRAG_B, DRAG_C, WD, XP, PXM, FRESH) = range(43)
+N_FIELDS = 43
 # After the lanes, a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
@@ -27,14 +30,17 @@ RANGE_P0, RANGE_P1, RANGE_P2, RANGE_P3, RANGE_FMIN, RANGE_FMAX = range(6)
 N_SCRATCH = 6
 
 # --- per-trajectory inputs: rows of a float64 array (N_INPUTS, N) --------------
-IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3 = range(9)
-N_INPUTS = 9
+# IN_DRAG_B, IN_DRAG_C: air drag's linear (1/s) and quadratic (1/m) coefficients
+# (read only by kernels built with drag; 0 otherwise)
+IN_X0, IN_V0, IN_MUK, IN_MUS, IN_G, IN_P0, IN_P1, IN_P2, IN_P3, IN_DRAG_B, IN_DRAG_C = range(11)
+N_INPUTS = 11
 
 # --- per-trajectory outputs (per unit mass): rows of float64 (N_OUTPUTS, N) ----
+# OUT_DRAG_WORK: work against air drag (0 from kernels built without drag)
 (OUT_STATUS, OUT_T, OUT_X, OUT_V, OUT_WORK, OUT_ENERGY_LOSS, OUT_PATH,
  OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS, OUT_NREJ, OUT_WORK_ERROR,
- OUT_XLIFT_PAPER) = range(14)
-N_OUTPUTS = 14
+ OUT_DRAG_WORK, OUT_XLIFT_PAPER) = range(15)
+N_OUTPUTS = 15
 
 # --- scalar settings: float64 array ---------------------------------------------
 # SET_DT: the fixed step, or an adaptive method's first step (0: estimate it);

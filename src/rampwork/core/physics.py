@@ -6,6 +6,8 @@ the contact sign ``s_n = sign(n)`` are held fixed, and both enter only through
 side below is smooth up to the next event.
 """
 
+import math
+
 from .jit import fma, jit
 
 
@@ -21,6 +23,31 @@ def acceleration(n, fp, q):
 
     For n > 0 this is the paper's eq. (10)."""
     return -n * (fp + q) / fma(fp, fp, 1.0)
+
+
+@jit
+def drag_rate(v, fp, b, c, d, linear, quadratic):
+    """Air drag's rate k (1/s), b + c s' with the speed along the path
+    s' = d v sqrt(1 + f'^2) (d = sign(v) fixed within a mode): the drag's
+    horizontal acceleration is -k v and its power per unit mass
+    k v^2 (1 + f'^2) >= 0.  ``linear``, ``quadratic``: which terms are on
+    (compile-time constants in the kernels, so the other term costs nothing).
+
+    From the tangential force -m (b s' + c s'^2) along the unit tangent
+    (1, f') / sqrt(1 + f'^2): its generalised force on x is that force dotted
+    with (1, f'), divided by the mass term m (1 + f'^2)."""
+    if quadratic:
+        k = c * (d * v) * math.sqrt(fma(fp, fp, 1.0))
+        return k + b if linear else k
+    return b if linear else 0.0
+
+
+@jit
+def acceleration_frictionless(n, fp, q):
+    """:func:`acceleration` with mu_k = 0 (``q`` unused): what kernels of
+    scenes without kinetic friction bind as ``acceleration``.  The same
+    result as ``acceleration(n, fp, 0.0)`` except perhaps the sign of a zero."""
+    return -n * fp / fma(fp, fp, 1.0)
 
 
 @jit
