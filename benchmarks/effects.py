@@ -135,7 +135,7 @@ def parse_args(argv=None):
 
 
 def cube_axes(n, **ranges):
-    side = max(2, round(n ** (1.0 / 3.0)))
+    side = max(2, round(n ** (1.0 / len(ranges))))
     return {name: np.linspace(lo, hi, side) for name, (lo, hi) in ranges.items()}
 
 
@@ -222,6 +222,9 @@ def runner_flags(plan):
                  carry_slope=plan.carry_slope, paper_criterion=plan.paper_criterion)
     if HAS_FRICTION_FLAG:
         flags["friction"] = plan.friction
+    for name in ("drag_linear", "drag_quadratic"):
+        if name in BUILD_PARAMETERS:
+            flags[name] = getattr(plan, name)
     return flags
 
 
@@ -370,7 +373,7 @@ def effect_rows(args, log):
                 log(f"  built friction={friction}: {info['seconds']:.1f} s ({info['source']})")
                 pruned.append(variant(f"friction={friction}", run_batch, free_scene, free_inputs, info))
             rows.append(effect_row(method, f"friction branch at mu = 0 (t_max {FRICTIONLESS_T_MAX:g} s)",
-                                   pruned[0], pruned[1], args, log, expect_identical=None,
+                                   pruned[0], pruned[1], args, log, expect_identical=True,
                                    runner_pick="off" if not free_plan.friction else "on"))
         # one-sided vs two-sided contact on a dome
         d_sweep = dome_sweep(args.n_dome)
