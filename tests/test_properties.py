@@ -280,13 +280,14 @@ def test_bit_identical_whatever_the_lanes_per_block(method, batch):
         assert np.array_equal(out, outputs[0], equal_nan=True)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "kernel bug: semi-implicit Euler launched at v0 = -1e-200 stops after a partial step of "
-    "8.9e-20 s (the root is located to rounding of dt, not of the tiny stop time), where v has "
-    "already turned positive; x then moves right, against the motion: path_length_x = -3.5e-38"))
 def test_semi_implicit_path_is_never_negative():
     """Found by test_invariants_first_order_methods (a hypothesis start of
-    v0 = -6e-95): the path travelled cannot be negative."""
+    v0 = -6e-95): the path travelled cannot be negative.  Semi-implicit Euler
+    launched at v0 = -1e-200 stops after a partial step of 8.9e-20 s (the
+    root located to the rounding of dt, not of the tiny stop time) where v
+    has already turned positive; x used to move right, against the motion
+    (path_length_x = -3.5e-38).  A stop now never leaves x behind its mode's
+    start."""
     scene = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=2.0, domain=(-0.9, 0.9)),
                      friction=rw.Friction(0.45, 0.47), x0=-1e-100, v0=-1e-200,
                      integrator=rw.Integrator("semi_implicit_euler", 1e-4))
@@ -295,11 +296,11 @@ def test_semi_implicit_path_is_never_negative():
     assert ds.path_length_x.values.item() >= 0.0 and ds.x_end.values.item() <= -1e-100
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "kernel: dop853 (stage weights of both signs) sums a friction power of a few denormals "
-    "to W_friction = -5e-324 at mu_k = 5e-324; W_f must not be negative"))
 def test_dop853_work_is_never_negative_at_a_denormal_friction():
-    """Found by test_invariants_on_random_ramps[spline-dop853]."""
+    """Found by test_invariants_on_random_ramps[spline-dop853]: dop853 (stage
+    weights of both signs) summed a friction power of a few denormals to
+    W_friction = -5e-324 at mu_k = 5e-324.  The adaptive pairs now never add
+    a negative friction-work increment (the power is >= 0 within a mode)."""
     ramp = rw.Ramp.create("spline", x_points=np.linspace(-1.0, 1.0, 4).tolist(),
                           y_points=[0.07247368019672706, 0.11995489219499386, -0.15, 0.03987879057460608],
                           domain=(-1.0, 1.0))

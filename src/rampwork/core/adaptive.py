@@ -118,7 +118,9 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
         x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
         lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,
         lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
-    w1 = w + dw
+    # the friction power is >= 0 within a mode; stage weights of both signs
+    # can round a sum of denormal powers below 0 (mu_k = 5e-324): never W < 0
+    w1 = w + (dw if dw > 0.0 else 0.0)
     k1 = k + dk
     if DRAG:
         wd1 = wd + dwd
@@ -356,7 +358,7 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             # shows no lift-off: the step stands
             lanes[X * LANES + i] = x1
             lanes[V * LANES + i] = v1
-            lanes[W * LANES + i] += dense_point(dense, h_end, 1.0, 2)
+            lanes[W * LANES + i] += max(dense_point(dense, h_end, 1.0, 2), 0.0)
             lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
             if DRAG:
                 lanes[WD * LANES + i] += dense_point(dense, h_end, 1.0, 4)
@@ -370,7 +372,7 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
     if best_theta > 0.0:
         lanes[X * LANES + i] += dense_point(dense, h_end, best_theta, 0)
         lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 1)
-        lanes[W * LANES + i] += dense_point(dense, h_end, best_theta, 2)
+        lanes[W * LANES + i] += max(dense_point(dense, h_end, best_theta, 2), 0.0)
         lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
         if DRAG:
             lanes[WD * LANES + i] += dense_point(dense, h_end, best_theta, 4)

@@ -577,6 +577,12 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
         lanes[X * LANES + i] = settings[SET_XHI]
     elif kind == EV_EXIT_LO:
         lanes[X * LANES + i] = settings[SET_XLO]
+    elif kind == EV_REVERSAL:
+        # Within a mode x moves only in direction d.  A stop located to the
+        # rounding of the step, in a mode shorter than that (a launch at
+        # v0 = -1e-200), can leave x a rounding behind the mode's start.
+        if lanes[D * LANES + i] * (lanes[X * LANES + i] - lanes[XM * LANES + i]) < 0.0:
+            lanes[X * LANES + i] = lanes[XM * LANES + i]
     if PAPER_CRITERION:  # the mode ends here: look for eq. (26) along it
         paper_scan(lanes, i, lanes[X * LANES + i], shared)
     rebase(lanes, i, t_event, settings)
