@@ -34,6 +34,8 @@ CHUNK_SIZE = 1 << 18
 H_MIN_ROUNDING = 4.0
 #: families whose f', f'' cost less to re-evaluate than to carry in the lanes
 CHEAP_FAMILIES = ("straight", "quadratic")
+#: families whose f'' is the same all along the ramp (no curvature integral needed)
+CONSTANT_CURVATURE_FAMILIES = ("straight", "quadratic")
 #: refuse sweeps whose results would not fit in this share of physical memory
 MEMORY_SHARE = 0.5
 #: bytes held per trajectory in memory: result variables plus a chunk's temporaries
@@ -66,6 +68,12 @@ class RunPlan:
         return {name: np.asarray(values) for name, values in self.sweep.axes}
 
     @property
+    def uniform_parameters(self) -> bool:
+        """g and the ramp's shape the same for every trajectory (not swept)."""
+        return not any(name in self.sweep.names
+                       for name in ("g",) + self.scene.ramp.spec.parameter_names)
+
+    @property
     def paper_criterion(self) -> bool:
         return "x_lift_off_paper" in self.scene.diagnostics
 
@@ -80,7 +88,7 @@ class RunPlan:
             return (scene.ramp.spec.key, "closed_form", self.paper_criterion)
         return (scene.ramp.spec.key, scene.integrator.method, scene.contact == "one_sided",
                 self.check_contact, self.carry_slope, self.paper_criterion, self.friction,
-                self.drag_linear, self.drag_quadratic)
+                self.drag_linear, self.drag_quadratic, self.uniform_parameters)
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -246,7 +254,9 @@ def get_kernel(plan: RunPlan):
         one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
         carry_slope=plan.carry_slope, drag_linear=plan.drag_linear,
         drag_quadratic=plan.drag_quadratic, paper_criterion=plan.paper_criterion,
-        friction=plan.friction, cache=spec.cacheable)
+        friction=plan.friction,
+        constant_curvature=plan.scene.ramp.family in CONSTANT_CURVATURE_FAMILIES,
+        uniform_parameters=plan.uniform_parameters, cache=spec.cacheable)
     _KERNELS[key] = kernels
     return kernels, time.perf_counter() - started
 
@@ -255,6 +265,10 @@ def _settings(scene: Scene) -> np.ndarray:
     settings = np.zeros(K.N_SETTINGS)
     settings[K.SET_XLO], settings[K.SET_XHI] = scene.ramp.domain
     settings[K.SET_TMAX] = scene.t_max
+    # the scene's own g and ramp shape: what every trajectory has where the
+    # sweep does not set them (kernels built with uniform_parameters read them)
+    settings[K.SET_G] = scene.g
+    settings[K.SET_P0:K.SET_P3 + 1] = scene.ramp.packed()
     integrator = scene.integrator
     if integrator.adaptive:
         settings[K.SET_DT] = 0.0 if integrator.dt is None else integrator.dt  # 0: estimate

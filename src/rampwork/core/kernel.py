@@ -51,11 +51,17 @@ CHAINS = 2  # lane-loop halves run side by side (1: one after the other)
 UNROLL = 1  # fixed steps per lane visit, state held in registers
 PAPER_CRITERION = False  # record where the paper's eq. (26) would report lift-off
 FRICTION = True  # False: mu_k = 0 everywhere, no friction branch (see build_kernel)
+# Known in advance for some methods and ramps (see build_kernel):
+WORK_SIGN_CHECK = True  # False: each step's friction work is >= 0 by construction
+CONSTANT_CURVATURE = False  # f'' is the same all along the ramp: no curvature integral
+LINEAR_EVENTS = False  # x and v are linear in the step size: events in closed form
+UNIFORM_PARAMETERS = False  # g and the ramp parameters are the run's settings, not per lane
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
- trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan) = (None,) * 25
+ trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
+ resolve_linear) = (None,) * 26
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -78,18 +84,22 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
+    # g and the ramp parameters, where the whole run shares them: scalars in
+    # registers instead of five more lane loads a step
+    uniform = (settings[SET_G], settings[SET_P0], settings[SET_P1], settings[SET_P2],
+               settings[SET_P3])
     if CHAINS == 2 and n_active > LANES // 2:
         for _ in range(n_substeps // UNROLL):
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
-                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h)
-                fixed_step_lane(lanes, i + LANES // 2, shared, x_lo, x_hi, h)
+                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform)
+                fixed_step_lane(lanes, i + LANES // 2, shared, x_lo, x_hi, h, uniform)
     else:
         for _ in range(n_substeps // UNROLL):
             for i in range(n_active):
-                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h)
+                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform)
 
 
-def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
+def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
     """One fixed step on lane i, committed only where no event condition fired
     (a select, not a branch).  A lane whose step raised an event keeps its
     step-start state, so it recomputes the same step and stays frozen until
@@ -98,17 +108,21 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
     x = lanes[X * LANES + i]
     v = lanes[V * LANES + i]
     d = lanes[D * LANES + i]
-    g = lanes[G * LANES + i]
     q = lanes[Q * LANES + i]
     sn = lanes[SN * LANES + i]
     limit = lanes[LIMIT * LANES + i]
-    p0 = lanes[P0 * LANES + i]
-    p1 = lanes[P1 * LANES + i]
-    p2 = lanes[P2 * LANES + i]
-    p3 = lanes[P3 * LANES + i]
+    if UNIFORM_PARAMETERS:
+        g, p0, p1, p2, p3 = uniform
+    else:
+        g = lanes[G * LANES + i]
+        p0 = lanes[P0 * LANES + i]
+        p1 = lanes[P1 * LANES + i]
+        p2 = lanes[P2 * LANES + i]
+        p3 = lanes[P3 * LANES + i]
     steps = lanes[STEPS * LANES + i]
     work = lanes[W * LANES + i]
-    curvature = lanes[K * LANES + i]
+    if not CONSTANT_CURVATURE:
+        curvature = lanes[K * LANES + i]
     drag_b = lanes[DRAG_B * LANES + i]
     drag_c = lanes[DRAG_C * LANES + i]
     drag_work = lanes[WD * LANES + i]
@@ -123,7 +137,9 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
         x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared,
                                    drag_b, drag_c)
         # dw < 0: a step too long for the mode's signs (see _event_values)
-        ok = ((d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo) & (steps < limit) & (dw >= 0.0))
+        ok = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo) & (steps < limit)
+        if WORK_SIGN_CHECK:
+            ok = ok & (dw >= 0.0)
         if DRAG:
             ok = ok & (dwd >= 0.0)  # drag's power is >= 0 within a mode, as friction's
         if CHECK_CONTACT or CARRY_SLOPE:
@@ -133,7 +149,8 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
         x = x1 if ok else x
         v = v1 if ok else v
         work += dw if ok else 0.0
-        curvature += dk if ok else 0.0
+        if not CONSTANT_CURVATURE:
+            curvature += dk if ok else 0.0
         if DRAG:
             drag_work += dwd if ok else 0.0
         steps = steps + 1.0 if ok else steps
@@ -143,7 +160,8 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h):
     lanes[X * LANES + i] = x
     lanes[V * LANES + i] = v
     lanes[W * LANES + i] = work
-    lanes[K * LANES + i] = curvature
+    if not CONSTANT_CURVATURE:
+        lanes[K * LANES + i] = curvature
     if DRAG:
         lanes[WD * LANES + i] = drag_work
     lanes[STEPS * LANES + i] = steps
@@ -204,7 +222,8 @@ def _apply_step(lanes, i, h, shared):
     lanes[X * LANES + i] = x1
     lanes[V * LANES + i] = v1
     lanes[W * LANES + i] += dw
-    lanes[K * LANES + i] += dk
+    if not CONSTANT_CURVATURE:
+        lanes[K * LANES + i] += dk
     if DRAG:
         lanes[WD * LANES + i] += dwd
     lanes[STEPS * LANES + i] += 1.0
@@ -344,7 +363,11 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     outputs[OUT_ENERGY_LOSS, j] = lanes[E0 * LANES + i] - energy_end
     outputs[OUT_PATH, j] = path
     # mean f'' over the path; its limit f''(x0) where nothing was travelled
-    outputs[OUT_CONVEXITY, j] = lanes[K * LANES + i] / path if path > 0.0 else lanes[FPP0 * LANES + i]
+    if CONSTANT_CURVATURE:  # the mean of a constant
+        outputs[OUT_CONVEXITY, j] = lanes[FPP0 * LANES + i]
+    else:
+        outputs[OUT_CONVEXITY, j] = (lanes[K * LANES + i] / path if path > 0.0
+                                     else lanes[FPP0 * LANES + i])
     outputs[OUT_NREV, j] = lanes[NREV * LANES + i]
     outputs[OUT_XLIFT, j] = x_lift
     outputs[OUT_XLIFT_PAPER, j] = x_paper
@@ -494,6 +517,8 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     # 1. the largest usable step: where the state stays finite and bounded
     h_end = h
     bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h, settings, shared)
+    if LINEAR_EVENTS and bounded and contact > 0.0:  # the whole step is usable
+        return resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outputs, shared)
     if not bounded:
         diverged = np.int64(EV_DIVERGED)  # one argument type for every call: one compilation
         h_end = locate_event(diverged, lanes, i, h, -1.0, settings, shared)
@@ -563,6 +588,53 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         return False
 
     # 3. take the partial step to the event and apply the event
+    if best_h > 0.0:
+        apply_step(lanes, i, best_h, shared)
+    return apply_event(lanes, i, best_kind, t_now + best_h, settings, outputs, shared)
+
+
+def _resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outputs, shared):
+    """:func:`_resolve_lane` for explicit Euler without drag, whose full step
+    is bounded and keeps contact.  Within the step x(h) = x + h v and
+    v(h) = v + h a are linear in h (a is the step start's), so an exit or a
+    reversal happens at one h, found in closed form instead of by root
+    finding; each is monotone within the step, so the earliest is the first."""
+    h = settings[SET_DT]
+    t_max = settings[SET_TMAX]
+    x = lanes[X * LANES + i]
+    v = lanes[V * LANES + i]
+    best_kind = EV_NONE
+    best_h = h
+    # ties go to the first in the order exit_lo, exit_hi, reversal (as in _resolve_lane)
+    # (v = 0: a departure from rest, whose first step does not move x; it
+    # can only exit where it already is, at h = 0)
+    if exit_lo <= 0.0:
+        best_kind = np.int64(EV_EXIT_LO)
+        best_h = min((settings[SET_XLO] - x) / v, h) if v != 0.0 else 0.0
+    if exit_hi <= 0.0:
+        h_hi = min((settings[SET_XHI] - x) / v, h) if v != 0.0 else 0.0
+        if best_kind == EV_NONE or h_hi < best_h:
+            best_kind = np.int64(EV_EXIT_HI)
+            best_h = h_hi
+    if reversal <= 0.0:
+        n = normal_term(v, lanes[FPP * LANES + i], lanes[G * LANES + i])
+        a = acceleration(n, lanes[FP * LANES + i], lanes[Q * LANES + i])
+        h_stop = min(-v / a, h)
+        if best_kind == EV_NONE or h_stop < best_h:
+            best_kind = np.int64(EV_REVERSAL)
+            best_h = h_stop
+    best_h = max(best_h, 0.0)
+    h_time = t_max - t_now
+    if h_time < best_h or (best_kind == EV_NONE and h_time <= h):
+        best_h = max(h_time, 0.0)
+        best_kind = np.int64(EV_TIMEOUT)
+    if best_kind == EV_NONE:
+        # frozen only by the step limit, with a rounding's worth of time left
+        apply_step(lanes, i, h, shared)
+        lanes[CASCADE * LANES + i] = 0.0
+        rebase(lanes, i, t_now + h, settings)
+        refresh_slope(lanes, i, shared)
+        return True
     if best_h > 0.0:
         apply_step(lanes, i, best_h, shared)
     return apply_event(lanes, i, best_kind, t_now + best_h, settings, outputs, shared)
@@ -819,7 +891,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
                  drag_linear: bool = False, drag_quadratic: bool = False,
                  lanes: int = 64, substeps: int | None = None, chains: int = 2,
                  unroll: int | None = None, paper_criterion: bool = False,
-                 friction: bool = True, cache: bool = True):
+                 friction: bool = True, constant_curvature: bool = False,
+                 uniform_parameters: bool = False, cache: bool = True):
     """Compile (or load from numba's on-disk cache) the kernels for one scene.
 
     ``method`` is a fixed-step method of ``steppers.STEPPERS`` or an adaptive
@@ -842,7 +915,12 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     (output row OUT_XLIFT_PAPER; NaN without it); ``friction=False`` (for
     runs whose mu_k is 0 everywhere) compiles no kinetic friction at all:
     the acceleration without the friction term, no friction work (the same
-    results, but perhaps the sign of a zero);
+    results, but perhaps the sign of a zero); ``constant_curvature`` (a
+    family whose f'' is the same all along the ramp: straight, quadratic)
+    accumulates no curvature integral, convexity_mean being f'' itself
+    (fixed-step methods); ``uniform_parameters`` (g and the ramp parameters
+    the same for every trajectory: ``settings[SET_G], settings[SET_P0..3]``)
+    lets the fixed-step loop keep them in registers;
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
     adaptive = method in ADAPTIVE_STEPPERS
@@ -851,6 +929,15 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
              + ("_carry" if carry_slope else "") + ("_dragb" if drag_linear else "")
              + ("_dragc" if drag_quadratic else "") + ("_paper" if paper_criterion else "")
              + ("" if friction else "_nofriction"))
+    # known in advance from the method: first-order steps use the start's
+    # n and v, so their friction work h q n v = h mu_k |n| |v| is >= 0; an
+    # explicit Euler step (without drag) is linear in h: events in closed form
+    first_order = method in ("euler", "semi_implicit_euler")
+    constant_curvature = bool(constant_curvature) and not adaptive
+    linear_events = method == "euler" and not (drag_linear or drag_quadratic)
+    uniform_parameters = bool(uniform_parameters) and not adaptive
+    flags += (("_constk" if constant_curvature else "") + ("_lin" if linear_events else "")
+              + ("_uniform" if uniform_parameters else ""))
     if substeps is None:
         substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
     if unroll is None:
@@ -873,6 +960,10 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "UNROLL": unroll,
         "PAPER_CRITERION": paper_criterion,
         "FRICTION": bool(friction),
+        "WORK_SIGN_CHECK": not first_order,
+        "CONSTANT_CURVATURE": constant_curvature,
+        "LINEAR_EVENTS": linear_events,
+        "UNIFORM_PARAMETERS": uniform_parameters,
         # every template calls `acceleration` by this global name
         "acceleration": acceleration if friction else acceleration_frictionless,
         "DRAG_LINEAR": bool(drag_linear),
@@ -925,6 +1016,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         ("new_lanes", _new_lanes),
         ("set_mode", _set_mode), ("refresh_slope", _refresh_slope),
         ("finish_lane", _finish_lane), ("apply_event", _apply_event),
+        ("resolve_linear", _resolve_linear),
         ("load_lane", _load_lane),
         ("resolve_lane", adaptive_parts._resolve_lane_adaptive if adaptive else _resolve_lane),
         ("fill_lane", _fill_lane),

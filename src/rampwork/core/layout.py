@@ -46,8 +46,11 @@ N_OUTPUTS = 15
 # SET_DT: the fixed step, or an adaptive method's first step (0: estimate it);
 # SET_HMAX, SET_HMIN: an adaptive method's largest step and the size below
 # which a collapsing step counts as divergence
-SET_XLO, SET_XHI, SET_DT, SET_TMAX, SET_RTOL, SET_ATOL, SET_HMAX, SET_HMIN = range(8)
-N_SETTINGS = 8
+# SET_G, SET_P0..SET_P3: g and the ramp parameters where no trajectory of the
+# run has others (read by kernels built with uniform_parameters)
+(SET_XLO, SET_XHI, SET_DT, SET_TMAX, SET_RTOL, SET_ATOL, SET_HMAX, SET_HMIN,
+ SET_G, SET_P0, SET_P1, SET_P2, SET_P3) = range(13)
+N_SETTINGS = 13
 
 # --- event kinds ----------------------------------------------------------------
 EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOUT = range(7)
