@@ -225,6 +225,11 @@ def runner_flags(plan):
     for name in ("drag_linear", "drag_quadratic"):
         if name in BUILD_PARAMETERS:
             flags[name] = getattr(plan, name)
+    # what is known in advance about the ramp and the sweep
+    if "constant_curvature" in BUILD_PARAMETERS:
+        flags["constant_curvature"] = plan.scene.ramp.family in runner.CONSTANT_CURVATURE_FAMILIES
+    if "uniform_parameters" in BUILD_PARAMETERS:
+        flags["uniform_parameters"] = plan.uniform_parameters
     return flags
 
 
@@ -1089,8 +1094,8 @@ def build_tables(res):
                         f"rampwork takes {sh['rampwork']['ns_per_trajectory']:.0f} ns per trajectory, the hand "
                         f"kernel {sh['hand']['ns_per_trajectory']:.0f} ns ({sh['ratio_rampwork_over_hand']:.2f}x): "
                         f"{sh['extra_ns_per_trajectory']:.0f} ns more per trajectory, most of it per-trajectory and "
-                        f"per-event work rather than steps (loading a lane, locating the event: rampwork by "
-                        f"root finding on the step size, the hand kernel in closed form; finishing). On the "
+                        f"per-event work rather than steps (loading a lane, locating and applying the event, "
+                        f"finishing). On the "
                         f"grid (about "
                         f"{hand['n_reversals_per_trajectory']:.1f} reversals per trajectory besides the final "
                         f"event) rampwork takes {hand['grid_extra_ns_per_trajectory_1thread']:.0f} ns more per "
