@@ -80,7 +80,9 @@ BAD_SCENES = {
     "unknown top-level key": (with_line("colour = 'red'"), ["colour", "top-level", "allowed"]),
     "mistyped key": (replaced("dt = 1e-3", "dtt = 1e-3"), ["[integrator]", "'dtt'", "dt"]),
     "parameter of another family": (replaced("slope = -0.3", "slope = -0.3\nradius = 1.0"), ["[ramp]", "radius"]),
-    "unknown table": (BASE + "\n[drag]\ncoefficient = 0.1\n", ["drag", "top-level"]),
+    "unknown table": (BASE + "\n[wind]\nspeed = 0.1\n", ["wind", "top-level"]),
+    "unknown key of the drag table": (BASE + "\n[drag]\ncoefficient = 0.1\n",
+                                      ["drag", "coefficient", "linear, quadratic"]),
     "unknown axis": (BASE + SWEEP + "radius = [1.0, 2.0]\n", ["[sweep.axes]", "radius"]),
     # NaN and infinity, in every spelling
     "NaN as a string": (replaced("x0 = 0.5", 'x0 = "NaN"'), ["x0", "'NaN'"]),
