@@ -230,6 +230,19 @@ def test_diagnostic_changes_nothing_else():
 # ------------------------------------------------------------------------------
 # pruned kernels give the same results as unpruned ones where both apply
 # ------------------------------------------------------------------------------
+def run_kernel(plan, **flags):
+    """The plan's whole sweep through a kernel built with explicit flags:
+    the raw output rows (K.N_OUTPUTS, n)."""
+    scene = plan.scene
+    spec = scene.ramp.spec
+    run_batch, _ = K.build_kernel(scene.integrator.method, spec.height, spec.slope_curvature,
+                                  name=spec.key, carry_slope=plan.carry_slope, **flags)
+    out = np.zeros((K.N_OUTPUTS, plan.size))
+    run_batch(runner.chunk_inputs(plan, 0, plan.size), runner._settings(scene), out,
+              scene.ramp.shared_array(), 64)
+    return out
+
+
 @pytest.mark.parametrize("method", ["euler", "rk4", "dopri5"])
 def test_no_lift_off_check_on_convex_ramps_changes_nothing(method):
     """f'' >= 0: the runner leaves the contact check out; the kernel with the
@@ -240,16 +253,7 @@ def test_no_lift_off_check_on_convex_ramps_changes_nothing(method):
     sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-2.0, 0.0, 1.0])
     plan = runner.plan_run(scene, sweep)
     assert not plan.check_contact
-    inputs = runner.chunk_inputs(plan, 0, plan.size)
-    settings = runner._settings(scene)
-    spec = scene.ramp.spec
-    results = []
-    for check in (False, True):
-        run_batch, _ = K.build_kernel(method, spec.height, spec.slope_curvature, name=spec.key,
-                                      check_contact=check, carry_slope=plan.carry_slope)
-        out = np.zeros((K.N_OUTPUTS, plan.size))
-        run_batch(inputs, settings, out, scene.ramp.shared_array(), 64)
-        results.append(out)
+    results = [run_kernel(plan, check_contact=check) for check in (False, True)]
     assert np.array_equal(results[0], results[1], equal_nan=True)
     assert set(results[0][K.OUT_STATUS].astype(int)) >= {STUCK}
 
@@ -275,18 +279,9 @@ def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
         ds = rw.simulate(scene, sweep)
         assert "no friction" in ds.attrs["kernel_effects"]
         assert np.all(ds.W_friction.values == 0.0)
-        inputs = runner.chunk_inputs(plan, 0, plan.size)
-        settings = runner._settings(scene)
-        spec = scene.ramp.spec
-        results = []
-        for friction in (False, True):
-            run_batch, _ = K.build_kernel(method, spec.height, spec.slope_curvature, name=spec.key,
-                                          one_sided=contact == "one_sided",
-                                          check_contact=plan.check_contact,
-                                          carry_slope=plan.carry_slope, friction=friction)
-            out = np.zeros((K.N_OUTPUTS, plan.size))
-            run_batch(inputs, settings, out, scene.ramp.shared_array(), 64)
-            results.append(out)
+        results = [run_kernel(plan, one_sided=contact == "one_sided",
+                              check_contact=plan.check_contact, friction=friction)
+                   for friction in (False, True)]
         assert np.array_equal(results[0], results[1], equal_nan=True), contact
         statuses = set(results[0][K.OUT_STATUS].astype(int))
         assert {STUCK, EXITED} <= statuses, statuses

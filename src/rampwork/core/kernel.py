@@ -61,7 +61,7 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
- resolve_linear) = (None,) * 26
+ resolve_linear, take_event) = (None,) * 27
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -505,7 +505,6 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     """Handle the step of lane i that raised an event.  Returns True if the
     trajectory goes on (new mode), False if it finished."""
     h = settings[SET_DT]
-    t_max = settings[SET_TMAX]
     t_now = current_time(lanes, i, h)
     lanes[CASCADE * LANES + i] += 1.0
     if lanes[CASCADE * LANES + i] > MAX_EVENT_CASCADE:
@@ -570,7 +569,16 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
             rebase(lanes, i, t_now, settings)
             finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
             return False
-    h_time = t_max - t_now
+    return take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared)
+
+
+def _take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared):
+    """The end of resolving lane i's frozen step, whose earliest event is
+    ``best_kind`` at step size ``best_h`` (EV_NONE: none within the usable
+    size ``h_end``): t_max may come first; then take the partial step to the
+    event and apply it.  Returns True if the trajectory goes on."""
+    h = settings[SET_DT]
+    h_time = settings[SET_TMAX] - t_now
     if h_time < best_h or (best_kind == EV_NONE and h_time <= h_end):
         best_h = max(h_time, 0.0)
         best_kind = EV_TIMEOUT
@@ -586,8 +594,6 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         rebase(lanes, i, t_now, settings)
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
-
-    # 3. take the partial step to the event and apply the event
     if best_h > 0.0:
         apply_step(lanes, i, best_h, shared)
     return apply_event(lanes, i, best_kind, t_now + best_h, settings, outputs, shared)
@@ -600,7 +606,6 @@ def _resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outpu
     reversal happens at one h, found in closed form instead of by root
     finding; each is monotone within the step, so the earliest is the first."""
     h = settings[SET_DT]
-    t_max = settings[SET_TMAX]
     x = lanes[X * LANES + i]
     v = lanes[V * LANES + i]
     best_kind = EV_NONE
@@ -623,21 +628,8 @@ def _resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outpu
         if best_kind == EV_NONE or h_stop < best_h:
             best_kind = np.int64(EV_REVERSAL)
             best_h = h_stop
-    best_h = max(best_h, 0.0)
-    h_time = t_max - t_now
-    if h_time < best_h or (best_kind == EV_NONE and h_time <= h):
-        best_h = max(h_time, 0.0)
-        best_kind = np.int64(EV_TIMEOUT)
-    if best_kind == EV_NONE:
-        # frozen only by the step limit, with a rounding's worth of time left
-        apply_step(lanes, i, h, shared)
-        lanes[CASCADE * LANES + i] = 0.0
-        rebase(lanes, i, t_now + h, settings)
-        refresh_slope(lanes, i, shared)
-        return True
-    if best_h > 0.0:
-        apply_step(lanes, i, best_h, shared)
-    return apply_event(lanes, i, best_kind, t_now + best_h, settings, outputs, shared)
+    # the whole step is usable: h_end = h
+    return take_event(lanes, i, best_kind, max(best_h, 0.0), h, t_now, settings, outputs, shared)
 
 
 def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
@@ -1016,7 +1008,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         ("new_lanes", _new_lanes),
         ("set_mode", _set_mode), ("refresh_slope", _refresh_slope),
         ("finish_lane", _finish_lane), ("apply_event", _apply_event),
-        ("resolve_linear", _resolve_linear),
+        ("take_event", _take_event), ("resolve_linear", _resolve_linear),
         ("load_lane", _load_lane),
         ("resolve_lane", adaptive_parts._resolve_lane_adaptive if adaptive else _resolve_lane),
         ("fill_lane", _fill_lane),
