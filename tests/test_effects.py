@@ -289,6 +289,59 @@ def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
             assert LIFTED_OFF in statuses
 
 
+@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5",
+                                    pytest.param("dop853", marks=pytest.mark.slow)])
+def test_uniform_parameters_in_registers_change_nothing(method):
+    """g and the ramp's shape not swept: the lane loops take them from the
+    run's settings instead of each lane; bit-identical results."""
+    integrator = (rw.Integrator(method, rtol=1e-8) if method in ("dopri5", "dop853")
+                  else rw.Integrator(method, 1e-3))
+    scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=6.0,
+                                         domain=(-1.0, 1.0)),
+                     friction=rw.Friction(0.1, 0.3), integrator=integrator, t_max=20.0)
+    sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -0.5, 0.0, 1.0, 4.0])
+    plan = runner.plan_run(scene, sweep)
+    assert plan.uniform_parameters
+    assert not runner.plan_run(scene, rw.Sweep.grid(x0=[0.1], g=[9.81, 3.7])).uniform_parameters
+    results = [run_kernel(plan, check_contact=plan.check_contact, uniform_parameters=uniform)
+               for uniform in (False, True)]
+    assert np.array_equal(results[0], results[1], equal_nan=True)
+    assert {STUCK, EXITED, LIFTED_OFF} <= set(results[0][K.OUT_STATUS].astype(int))
+
+
+@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5",
+                                    pytest.param("dop853", marks=pytest.mark.slow)])
+def test_constant_curvature_needs_no_curvature_integral(method):
+    """A quadratic ramp's f'' is one number: the kernel built for that
+    integrates no curvature integral and reports f'' itself as its mean.
+    Fixed steps: every other output bit-identical.  Adaptive pairs: the
+    integral also leaves the error norm, so steps differ a little; the
+    results agree to the tolerance and the outcomes are the same."""
+    adaptive = method in ("dopri5", "dop853")
+    integrator = rw.Integrator(method, rtol=1e-9, atol=1e-9) if adaptive else rw.Integrator(method, 1e-3)
+    curvature = 1.5
+    scene = rw.Scene(ramp=rw.Ramp.create("quadratic", curvature=curvature, slope=0.3,
+                                         domain=(-1.0, 1.0)),
+                     friction=rw.Friction(0.15, 0.25), integrator=integrator, t_max=20.0)
+    sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -1.0, 0.0, 1.0, 4.0])
+    plan = runner.plan_run(scene, sweep)
+    general, constant = (run_kernel(plan, check_contact=plan.check_contact,
+                                    constant_curvature=flag) for flag in (False, True))
+    assert np.all(constant[K.OUT_CONVEXITY] == curvature)
+    moved = general[K.OUT_PATH] > 0.0
+    assert moved.sum() > 20
+    np.testing.assert_allclose(general[K.OUT_CONVEXITY][moved], curvature, rtol=1e-9)
+    assert {STUCK, EXITED} <= set(general[K.OUT_STATUS].astype(int))
+    others = [row for row in range(K.N_OUTPUTS) if row != K.OUT_CONVEXITY]
+    if not adaptive:
+        assert np.array_equal(general[others], constant[others], equal_nan=True)
+        return
+    for row in (K.OUT_STATUS, K.OUT_NREV):
+        assert np.array_equal(general[row], constant[row])
+    for row in (K.OUT_X, K.OUT_V, K.OUT_WORK, K.OUT_ENERGY_LOSS, K.OUT_PATH, K.OUT_T):
+        np.testing.assert_allclose(constant[row], general[row], rtol=1e-6, atol=1e-6)
+
+
 def test_effects_in_words_and_refused_combinations():
     bowl = rw.Scene(ramp=rw.Ramp.create("quadratic", curvature=1.0, domain=(-1.0, 1.0)), x0=0.5)
     words = runner.plan_run(bowl.replace(friction=rw.Friction(0.2), drag=rw.Drag(quadratic=0.1))).effects

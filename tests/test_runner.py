@@ -98,3 +98,69 @@ def test_bitwise_identical_whatever_the_block_and_tile_size():
     assert results[0][K.OUT_NREV].max() >= 3  # and many reversals
     for out in results[1:]:
         assert np.array_equal(out, results[0], equal_nan=True)
+
+
+# ------------------------------------------------------------------------------
+# the array passes around the kernel (core.reduce) against numpy's formulas
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize("shape", [(7,), (3, 5), (4, 1, 6), (2, 3, 2, 5)])
+def test_grid_columns_are_numpys_unravelled_indices(shape):
+    from rampwork.core import reduce
+
+    rng = np.random.default_rng(len(shape))
+    axes = [rng.normal(size=n) for n in shape]
+    lengths = np.array(shape, dtype=np.int64)
+    values = np.zeros((len(shape), max(shape)))
+    for row, axis in enumerate(axes):
+        values[row, :len(axis)] = axis
+    size = int(np.prod(shape))
+    for start, stop in ((0, size), (1, size), (size // 2, size)):
+        columns = np.empty((len(shape), stop - start))
+        reduce.grid_columns(start, lengths, values, columns)
+        index = np.unravel_index(np.arange(start, stop), shape)
+        for row, axis in enumerate(axes):
+            assert np.array_equal(columns[row], axis[index[row]])
+
+
+@pytest.mark.parametrize("drag", [False, True])
+def test_reduction_follows_the_dataset_definitions(drag):
+    """W_linear = mu_k m g |x_end - x0|, W_excess = W_friction - W_linear,
+    W_path = mu_k m g path_length_x, the energy balance with and without drag,
+    integer variables from the kernel's float rows; variables a run does not
+    have are left alone."""
+    from rampwork import runner
+    from rampwork.core import kernel as K
+
+    rng = np.random.default_rng(5)
+    n = 20_001  # more than one parallel block, and not a multiple of it
+    raw = rng.uniform(-2.0, 2.0, size=(K.N_OUTPUTS, n))
+    raw[K.OUT_STATUS] = rng.integers(0, 6, n)
+    raw[K.OUT_NREV] = rng.integers(0, 30, n)
+    raw[K.OUT_STEPS] = rng.integers(0, 10**9, n)
+    raw[K.OUT_NREJ] = rng.integers(0, 10, n)
+    inputs = rng.uniform(0.1, 2.0, size=(K.N_INPUTS, n))
+    mass = rng.uniform(0.5, 3.0, n)
+    names = schema.output_names(adaptive=True, drag=drag)
+    out = {name: np.full(n, 7, dtype=schema.OUTPUTS[name].np_dtype) for name in names}
+    runner.reduce_outputs(raw, inputs, mass, out=out)
+    x0, mu_k, g = inputs[K.IN_X0], inputs[K.IN_MUK], inputs[K.IN_G]
+    assert out["status"].dtype == np.int8 and np.array_equal(out["status"], raw[K.OUT_STATUS])
+    assert np.array_equal(out["n_reversals"], raw[K.OUT_NREV])
+    assert np.array_equal(out["steps"], raw[K.OUT_STEPS])
+    assert np.array_equal(out["steps_rejected"], raw[K.OUT_NREJ])
+    assert np.array_equal(out["x_end"], raw[K.OUT_X])
+    np.testing.assert_allclose(out["W_friction"], mass * raw[K.OUT_WORK], rtol=1e-15)
+    np.testing.assert_allclose(out["W_linear"], mu_k * mass * g * np.abs(raw[K.OUT_X] - x0),
+                               rtol=1e-14)
+    np.testing.assert_allclose(out["W_excess"], out["W_friction"] - out["W_linear"],
+                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(out["W_path"], mu_k * mass * g * raw[K.OUT_PATH], rtol=1e-14)
+    lost = mass * raw[K.OUT_ENERGY_LOSS]
+    dissipated = out["W_friction"] + (mass * raw[K.OUT_DRAG_WORK] if drag else 0.0)
+    np.testing.assert_allclose(out["energy_balance_error"], dissipated - lost, rtol=1e-12,
+                               atol=1e-14)
+    if drag:
+        np.testing.assert_allclose(out["W_drag"], mass * raw[K.OUT_DRAG_WORK], rtol=1e-15)
+    else:
+        assert "W_drag" not in out
+    assert "x_lift_off_paper" not in out  # not asked for: not written anywhere

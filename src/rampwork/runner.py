@@ -22,6 +22,7 @@ import xarray as xr
 
 from . import schema
 from .core import kernel as K
+from .core import reduce
 from .core import straight
 from .core.status import STATUS_NAMES
 from .errors import ConfigError
@@ -66,6 +67,19 @@ class RunPlan:
     def axis_arrays(self) -> dict[str, np.ndarray]:
         """The sweep's axes as arrays, converted once (not once a chunk)."""
         return {name: np.asarray(values) for name, values in self.sweep.axes}
+
+    @functools.cached_property
+    def grid_lengths(self) -> np.ndarray:
+        """The grid's axis lengths, for :func:`core.reduce.grid_columns`."""
+        return np.array([len(array) for array in self.axis_arrays.values()], dtype=np.int64)
+
+    @functools.cached_property
+    def grid_values(self) -> np.ndarray:
+        """The grid's axes as rows padded to the longest (float64 axes only)."""
+        values = np.zeros((len(self.axis_arrays), int(self.grid_lengths.max(initial=1))))
+        for row, array in enumerate(self.axis_arrays.values()):
+            values[row, :len(array)] = array
+        return values
 
     @property
     def uniform_parameters(self) -> bool:
@@ -309,16 +323,42 @@ def empty_results(plan: RunPlan, n: int) -> dict[str, np.ndarray]:
             for name in plan.output_names}
 
 
+class ChunkBuffers:
+    """The arrays one chunk needs besides its results, allocated once per run
+    and reused by every chunk: fresh arrays of this size (60 MB for a full
+    chunk) cost more in first-touch page faults than the work done in them."""
+
+    def __init__(self, plan: RunPlan, size: int):
+        self.size = size
+        self._inputs = np.empty(K.N_INPUTS * size)
+        self._raw = np.empty(K.N_OUTPUTS * size)
+        self._columns = np.empty(len(plan.axis_arrays) * size)
+
+    def arrays(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(inputs, raw, columns) for a chunk of n <= size trajectories: C-contiguous
+        (rows, n) views (slices of (rows, size) arrays would not be, and the
+        kernel would compile again for strided arrays)."""
+        return (self._inputs[:K.N_INPUTS * n].reshape(K.N_INPUTS, n),
+                self._raw[:K.N_OUTPUTS * n].reshape(K.N_OUTPUTS, n),
+                self._columns[:self._columns.size // self.size * n].reshape(-1, n))
+
+
 def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
-              out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+              out: dict[str, np.ndarray] | None = None,
+              buffers: ChunkBuffers | None = None) -> dict[str, np.ndarray]:
     """Run the flat trajectories start..stop-1 and reduce them to the output
-    variables (into ``out`` when given). Call inside :func:`using_threads`."""
+    variables (into ``out`` when given; ``buffers`` to reuse a run's scratch
+    arrays). Call inside :func:`using_threads`."""
     plan = prepared.plan
-    inputs = chunk_inputs(plan, start, stop)
-    raw = np.zeros((K.N_OUTPUTS, stop - start))
-    prepared.run_batch(inputs, prepared.settings, raw, prepared.shared, tile_size(stop - start, threads))
+    n = stop - start
+    if buffers is None or buffers.size < n:
+        buffers = ChunkBuffers(plan, n)
+    inputs, raw, columns = buffers.arrays(n)
+    inputs = chunk_inputs(plan, start, stop, out=inputs, columns=columns)
+    raw.fill(0.0)
+    prepared.run_batch(inputs, prepared.settings, raw, prepared.shared, tile_size(n, threads))
     if out is None:
-        out = empty_results(plan, stop - start)
+        out = empty_results(plan, n)
     return reduce_outputs(raw, inputs, _masses(plan, start, stop), out=out)
 
 
@@ -338,38 +378,49 @@ def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray) -> float:
     """Compile (or load) the kernel on one trajectory that ends at once (it
     starts on the domain's upper end moving out), so that compile time is
     measured apart from run time."""
+    started = time.perf_counter()  # the array passes around the kernel compile too
     inputs = chunk_inputs(plan, 0, 1)
     inputs[K.IN_X0] = plan.scene.ramp.domain[1]
     inputs[K.IN_V0] = 1.0
-    started = time.perf_counter()
-    run_batch(inputs, settings, np.zeros((K.N_OUTPUTS, 1)), plan.scene.ramp.shared_array(), 1)
+    raw = np.zeros((K.N_OUTPUTS, 1))
+    run_batch(inputs, settings, raw, plan.scene.ramp.shared_array(), 1)
+    reduce_outputs(raw, inputs, np.ones(1), out=empty_results(plan, 1))
     return time.perf_counter() - started
 
 
 # ------------------------------------------------------------------------------
 # per-trajectory parameters
 # ------------------------------------------------------------------------------
-def axis_values(plan: RunPlan, start: int, stop: int) -> dict[str, np.ndarray]:
-    """Each swept axis's value for the flat trajectories start..stop-1."""
+def axis_values(plan: RunPlan, start: int, stop: int,
+                columns: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Each swept axis's value for the flat trajectories start..stop-1
+    (a grid's into the rows of ``columns`` when given)."""
     if not plan.sweep.axes:
         return {}
     arrays = plan.axis_arrays
     if plan.sweep.kind == "cases":
         return {name: array[start:stop].copy() for name, array in arrays.items()}
-    index = np.unravel_index(np.arange(start, stop), plan.shape)
-    return {name: array[index[k]] for k, (name, array) in enumerate(arrays.items())}
+    if not all(array.dtype == np.float64 for array in arrays.values()):
+        index = np.unravel_index(np.arange(start, stop), plan.shape)
+        return {name: array[index[k]] for k, (name, array) in enumerate(arrays.items())}
+    if columns is None:
+        columns = np.empty((len(arrays), stop - start))
+    reduce.grid_columns(start, plan.grid_lengths, plan.grid_values, columns)
+    return dict(zip(arrays, columns))
 
 
-def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:
-    """The kernel's input rows (K.N_INPUTS, stop - start) for a flat range."""
+def chunk_inputs(plan: RunPlan, start: int, stop: int, out: np.ndarray | None = None,
+                 columns: np.ndarray | None = None) -> np.ndarray:
+    """The kernel's input rows (K.N_INPUTS, stop - start) for a flat range
+    (into ``out`` when given; ``columns``: scratch for a grid's axis values)."""
     scene = plan.scene
     n = stop - start
-    values = axis_values(plan, start, stop)
+    values = axis_values(plan, start, stop, columns)
 
     def column(name, default):
-        return values[name] if name in values else np.full(n, default)
+        return values[name] if name in values else default
 
-    inputs = np.empty((K.N_INPUTS, n))
+    inputs = np.empty((K.N_INPUTS, n)) if out is None else out
     inputs[K.IN_X0] = column("x0", scene.x0)
     inputs[K.IN_V0] = column("v0", scene.v0)
     inputs[K.IN_G] = column("g", scene.g)
@@ -382,9 +433,15 @@ def chunk_inputs(plan: RunPlan, start: int, stop: int) -> np.ndarray:
     inputs[K.IN_DRAG_B] = column("drag_linear", scene.drag.linear)
     inputs[K.IN_DRAG_C] = column("drag_quadratic", scene.drag.quadratic)
     spec = scene.ramp.spec
+    rows = (K.IN_P0, K.IN_P1, K.IN_P2, K.IN_P3)
+    if not any(name in values for name in spec.parameter_names):
+        for row, value in zip(rows, scene.ramp.packed()):  # the scene's own shape throughout
+            inputs[row] = value
+        return inputs
     base = scene.ramp.param_dict()
-    params = {name: column(name, base[name]) for name in spec.parameter_names}
-    for row, packed in zip((K.IN_P0, K.IN_P1, K.IN_P2, K.IN_P3), spec.pack(params, n)):
+    params = {name: values[name] if name in values else np.full(n, base[name])
+              for name in spec.parameter_names}
+    for row, packed in zip(rows, spec.pack(params, n)):
         inputs[row] = packed
     return inputs
 
@@ -404,43 +461,35 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
 
     With ``out`` (name -> array of the chunk's length), the variables are
     written into those arrays (only the names present), without temporaries
-    of their own; returns ``out``."""
+    of their own; returns ``out``.  One parallel pass (``core.reduce``):
+    W_friction = m w, W_linear = mu_k m g |x_end - x0|, W_excess their
+    difference, W_path = mu_k m g path_length_x, energy_balance_error =
+    W_friction (+ W_drag) - m (energy lost per unit mass)."""
+    n = raw.shape[1]
     if out is None:
-        out = {name: np.empty(raw.shape[1], dtype=schema.OUTPUTS[name].np_dtype)
+        out = {name: np.empty(n, dtype=schema.OUTPUTS[name].np_dtype)
                for name in schema.OUTPUTS}
-    mu_k = inputs[K.IN_MUK]
-    g = inputs[K.IN_G]
-    weight = mass * g  # m g: the straight-ramp estimates' force per unit mu
-    copies = {"status": K.OUT_STATUS, "t_end": K.OUT_T, "x_end": K.OUT_X, "v_end": K.OUT_V,
-              "convexity_mean": K.OUT_CONVEXITY, "path_length_x": K.OUT_PATH,
-              "n_reversals": K.OUT_NREV, "x_lift_off": K.OUT_XLIFT,
-              "x_lift_off_paper": K.OUT_XLIFT_PAPER, "steps": K.OUT_STEPS,
-              "steps_rejected": K.OUT_NREJ}
-    for name, row in copies.items():
+
+    def target(name):
         if name in out:
-            out[name][...] = raw[row]  # casts to the schema's dtype
-    per_mass = {"W_friction": K.OUT_WORK, "W_energy": K.OUT_ENERGY_LOSS,
-                "W_friction_error_estimate": K.OUT_WORK_ERROR, "W_drag": K.OUT_DRAG_WORK}
-    for name, row in per_mass.items():
-        if name in out:
-            np.multiply(mass, raw[row], out=out[name])
-    w_friction = mass * raw[K.OUT_WORK]
-    w_linear = np.abs(raw[K.OUT_X] - inputs[K.IN_X0])
-    w_linear *= mu_k
-    w_linear *= weight
-    if "W_linear" in out:
-        out["W_linear"][...] = w_linear
-    if "W_excess" in out:
-        np.subtract(w_friction, w_linear, out=out["W_excess"])
-    if "W_path" in out:
-        np.multiply(mu_k * weight, raw[K.OUT_PATH], out=out["W_path"])
-    if "energy_balance_error" in out:
-        if "W_drag" in out:  # a run with air drag: friction and drag share the energy lost
-            np.subtract(w_friction + mass * raw[K.OUT_DRAG_WORK], mass * raw[K.OUT_ENERGY_LOSS],
-                        out=out["energy_balance_error"])
-        else:
-            np.subtract(w_friction, mass * raw[K.OUT_ENERGY_LOSS], out=out["energy_balance_error"])
+            return out[name]
+        # optional variables are skipped; the others go to scratch
+        length = 0 if name in _OPTIONAL_OUTPUTS else n
+        return np.empty(length, dtype=schema.OUTPUTS[name].np_dtype)
+
+    reduce.reduce_rows(raw, inputs[K.IN_X0], inputs[K.IN_MUK], inputs[K.IN_G],
+                       np.ascontiguousarray(mass, dtype=np.float64),
+                       *(target(name) for name in _REDUCED_OUTPUTS))
     return out
+
+
+#: reduce_rows's output arguments, in its order
+_REDUCED_OUTPUTS = ("status", "t_end", "x_end", "v_end", "convexity_mean", "path_length_x",
+                    "n_reversals", "x_lift_off", "x_lift_off_paper", "steps", "steps_rejected",
+                    "W_friction", "W_energy", "W_friction_error_estimate", "W_drag", "W_linear",
+                    "W_excess", "W_path", "energy_balance_error")
+#: the ones reduce_rows skips when given an empty array
+_OPTIONAL_OUTPUTS = ("x_lift_off_paper", "steps_rejected", "W_friction_error_estimate", "W_drag")
 
 
 def tile_size(n: int, threads: int) -> int:
@@ -468,11 +517,13 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
 
     results = empty_results(plan, plan.size)
     started = time.perf_counter()
+    buffers = ChunkBuffers(plan, min(plan.size, CHUNK_SIZE))
     with using_threads(threads):
         for start in range(0, plan.size, CHUNK_SIZE):
             stop = min(plan.size, start + CHUNK_SIZE)
             run_chunk(prepared, start, stop, threads,
-                      out={name: array[start:stop] for name, array in results.items()})
+                      out={name: array[start:stop] for name, array in results.items()},
+                      buffers=buffers)
             if progress is not None:
                 progress(stop, plan.size)
     run_seconds = time.perf_counter() - started

@@ -46,6 +46,8 @@ step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 ONE_SIDED = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel.py)
+CONSTANT_CURVATURE = False  # f'' the same all along the ramp: no curvature integral
+UNIFORM_PARAMETERS = False  # g and the ramp parameters are the run's settings
 LANES = 64
 PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
 CHAINS = 2
@@ -85,39 +87,52 @@ def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
     atol = settings[SET_ATOL]
     h_max = settings[SET_HMAX]
     h_min = settings[SET_HMIN]
+    # g and the ramp parameters, where the whole run shares them (as kernel.py)
+    uniform = ((settings[SET_G], settings[SET_P0], settings[SET_P1], settings[SET_P2],
+                settings[SET_P3]) if UNIFORM_PARAMETERS else (0.0, 0.0, 0.0, 0.0, 0.0))
     if CHAINS == 2 and n_active > LANES // 2:
         for _ in range(n_attempts):
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
-                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min)
+                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, uniform)
                 attempt(lanes, i + LANES // 2, shared, x_lo, x_hi, t_max, rtol, atol,
-                        h_max, h_min)
+                        h_max, h_min, uniform)
     else:  # a tile's tail
         for _ in range(n_attempts):
             for i in range(n_active):
-                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min)
+                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, uniform)
 
 
-def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
+def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, uniform):
     """One step attempt on lane i.  Branch-free, as in the fixed-step kernel:
     the outcome (commit, reject or freeze) is selected, not branched on."""
     x = lanes[X * LANES + i]
     v = lanes[V * LANES + i]
     d = lanes[D * LANES + i]
-    g = lanes[G * LANES + i]
+    if UNIFORM_PARAMETERS:
+        g, p0, p1, p2, p3 = uniform
+    else:
+        g = lanes[G * LANES + i]
+        p0 = lanes[P0 * LANES + i]
+        p1 = lanes[P1 * LANES + i]
+        p2 = lanes[P2 * LANES + i]
+        p3 = lanes[P3 * LANES + i]
     fp = lanes[FP * LANES + i]
     fpp = lanes[FPP * LANES + i]
     a1 = lanes[A1 * LANES + i]
     h = lanes[H * LANES + i]
     t = lanes[T * LANES + i]
     w = lanes[W * LANES + i]
-    k = lanes[K * LANES + i]
+    k = 0.0 if CONSTANT_CURVATURE else lanes[K * LANES + i]
     wd = lanes[WD * LANES + i]
     frozen = lanes[PENDING * LANES + i] > 0.0
     (x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high, fx, fv, fw, fk,
      dwd, ed, fd) = step(
-        x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, lanes[P0 * LANES + i],
-        lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,
+        x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, p0, p1, p2, p3, shared,
         lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
+    if CONSTANT_CURVATURE:
+        # the curvature integral is f'' times the path: not integrated, not
+        # in the error norm (its stage sums then compile away)
+        dk = ek = fk = 0.0
     # the friction power is >= 0 within a mode; stage weights of both signs
     # can round a sum of denormal powers below 0 (mu_k = 5e-324): never W < 0
     w1 = w + (dw if dw > 0.0 else 0.0)
@@ -129,6 +144,8 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     else:
         err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, fx, fv, fw, fk, rtol,
                            atol)
+    if CONSTANT_CURVATURE:  # the mean square over the components that remain
+        err2 *= 5.0 / 4.0 if DRAG else 4.0 / 3.0
     bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
     accepted = bounded & (err2 <= 1.0)
     event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
@@ -162,7 +179,8 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min):
     lanes[X * LANES + i] = x1 if commit else x
     lanes[V * LANES + i] = v1 if commit else v
     lanes[W * LANES + i] = w1 if commit else w
-    lanes[K * LANES + i] = k1 if commit else k
+    if not CONSTANT_CURVATURE:
+        lanes[K * LANES + i] = k1 if commit else k
     if DRAG:
         lanes[WD * LANES + i] = wd1 if commit else wd
     lanes[FP * LANES + i] = fp7 if commit else fp
@@ -359,7 +377,8 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             lanes[X * LANES + i] = x1
             lanes[V * LANES + i] = v1
             lanes[W * LANES + i] += max(dense_point(dense, h_end, 1.0, 2), 0.0)
-            lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
+            if not CONSTANT_CURVATURE:
+                lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
             if DRAG:
                 lanes[WD * LANES + i] += dense_point(dense, h_end, 1.0, 4)
             lanes[STEPS * LANES + i] += 1.0
@@ -373,7 +392,8 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         lanes[X * LANES + i] += dense_point(dense, h_end, best_theta, 0)
         lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 1)
         lanes[W * LANES + i] += max(dense_point(dense, h_end, best_theta, 2), 0.0)
-        lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
+        if not CONSTANT_CURVATURE:
+            lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
         if DRAG:
             lanes[WD * LANES + i] += dense_point(dense, h_end, best_theta, 4)
         lanes[STEPS * LANES + i] += 1.0

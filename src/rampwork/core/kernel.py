@@ -86,8 +86,8 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
     h = settings[SET_DT]
     # g and the ramp parameters, where the whole run shares them: scalars in
     # registers instead of five more lane loads a step
-    uniform = (settings[SET_G], settings[SET_P0], settings[SET_P1], settings[SET_P2],
-               settings[SET_P3])
+    uniform = ((settings[SET_G], settings[SET_P0], settings[SET_P1], settings[SET_P2],
+                settings[SET_P3]) if UNIFORM_PARAMETERS else (0.0, 0.0, 0.0, 0.0, 0.0))
     if CHAINS == 2 and n_active > LANES // 2:
         for _ in range(n_substeps // UNROLL):
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
@@ -909,10 +909,11 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     the acceleration without the friction term, no friction work (the same
     results, but perhaps the sign of a zero); ``constant_curvature`` (a
     family whose f'' is the same all along the ramp: straight, quadratic)
-    accumulates no curvature integral, convexity_mean being f'' itself
-    (fixed-step methods); ``uniform_parameters`` (g and the ramp parameters
-    the same for every trajectory: ``settings[SET_G], settings[SET_P0..3]``)
-    lets the fixed-step loop keep them in registers;
+    accumulates no curvature integral, convexity_mean being f'' itself (the
+    adaptive pairs then leave it out of their error norm, whose mean square
+    runs over the remaining components); ``uniform_parameters`` (g and the
+    ramp parameters the same for every trajectory: ``settings[SET_G],
+    settings[SET_P0..3]``) lets the lane loops keep them in registers;
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
     """
     adaptive = method in ADAPTIVE_STEPPERS
@@ -925,9 +926,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     # n and v, so their friction work h q n v = h mu_k |n| |v| is >= 0; an
     # explicit Euler step (without drag) is linear in h: events in closed form
     first_order = method in ("euler", "semi_implicit_euler")
-    constant_curvature = bool(constant_curvature) and not adaptive
+    constant_curvature = bool(constant_curvature)
     linear_events = method == "euler" and not (drag_linear or drag_quadratic)
-    uniform_parameters = bool(uniform_parameters) and not adaptive
+    uniform_parameters = bool(uniform_parameters)
     flags += (("_constk" if constant_curvature else "") + ("_lin" if linear_events else "")
               + ("_uniform" if uniform_parameters else ""))
     if substeps is None:
