@@ -46,7 +46,6 @@ step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 ONE_SIDED = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel.py)
-CONSTANT_CURVATURE = False  # f'' the same all along the ramp: no curvature integral
 UNIFORM_PARAMETERS = False  # g and the ramp parameters are the run's settings
 LANES = 64
 PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
@@ -122,17 +121,13 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, unif
     h = lanes[H * LANES + i]
     t = lanes[T * LANES + i]
     w = lanes[W * LANES + i]
-    k = 0.0 if CONSTANT_CURVATURE else lanes[K * LANES + i]
+    k = lanes[K * LANES + i]
     wd = lanes[WD * LANES + i]
     frozen = lanes[PENDING * LANES + i] > 0.0
     (x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high, fx, fv, fw, fk,
      dwd, ed, fd) = step(
         x, v, fp, fpp, a1, lanes[Q * LANES + i], d, h, g, p0, p1, p2, p3, shared,
         lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
-    if CONSTANT_CURVATURE:
-        # the curvature integral is f'' times the path: not integrated, not
-        # in the error norm (its stage sums then compile away)
-        dk = ek = fk = 0.0
     # the friction power is >= 0 within a mode; stage weights of both signs
     # can round a sum of denormal powers below 0 (mu_k = 5e-324): never W < 0
     w1 = w + (dw if dw > 0.0 else 0.0)
@@ -144,8 +139,6 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, unif
     else:
         err2 = error_norm2(x, v, w, k, x1, v1, w1, k1, ex, ev, ew, ek, fx, fv, fw, fk, rtol,
                            atol)
-    if CONSTANT_CURVATURE:  # the mean square over the components that remain
-        err2 *= 5.0 / 4.0 if DRAG else 4.0 / 3.0
     bounded = (v1 * v1 <= lanes[VLIM2 * LANES + i]) & (err2 <= ERROR_NORM_BAD)
     accepted = bounded & (err2 <= 1.0)
     event = ((d * v1 <= 0.0) | (x1 >= x_hi) | (x1 <= x_lo) | (t + h >= t_max))
@@ -179,8 +172,7 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, unif
     lanes[X * LANES + i] = x1 if commit else x
     lanes[V * LANES + i] = v1 if commit else v
     lanes[W * LANES + i] = w1 if commit else w
-    if not CONSTANT_CURVATURE:
-        lanes[K * LANES + i] = k1 if commit else k
+    lanes[K * LANES + i] = k1 if commit else k
     if DRAG:
         lanes[WD * LANES + i] = wd1 if commit else wd
     lanes[FP * LANES + i] = fp7 if commit else fp
@@ -377,8 +369,7 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             lanes[X * LANES + i] = x1
             lanes[V * LANES + i] = v1
             lanes[W * LANES + i] += max(dense_point(dense, h_end, 1.0, 2), 0.0)
-            if not CONSTANT_CURVATURE:
-                lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
+            lanes[K * LANES + i] += dense_point(dense, h_end, 1.0, 3)
             if DRAG:
                 lanes[WD * LANES + i] += dense_point(dense, h_end, 1.0, 4)
             lanes[STEPS * LANES + i] += 1.0
@@ -392,8 +383,7 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
         lanes[X * LANES + i] += dense_point(dense, h_end, best_theta, 0)
         lanes[V * LANES + i] += dense_point(dense, h_end, best_theta, 1)
         lanes[W * LANES + i] += max(dense_point(dense, h_end, best_theta, 2), 0.0)
-        if not CONSTANT_CURVATURE:
-            lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
+        lanes[K * LANES + i] += dense_point(dense, h_end, best_theta, 3)
         if DRAG:
             lanes[WD * LANES + i] += dense_point(dense, h_end, best_theta, 4)
         lanes[STEPS * LANES + i] += 1.0
