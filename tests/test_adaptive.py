@@ -431,7 +431,10 @@ RANDOM_SETTINGS = dict(deadline=None, derandomize=True, phases=[Phase.explicit, 
                        suppress_health_check=[HealthCheck.too_slow])
 
 
-@pytest.mark.parametrize("family", list(FAMILY_SPACE))
+# the default run keeps two families; the _many variant (slow) runs them all
+@pytest.mark.parametrize("family", [family if family in ("quadratic", "circular_bowl")
+                                    else pytest.param(family, marks=pytest.mark.slow)
+                                    for family in FAMILY_SPACE])
 @settings(max_examples=2, **RANDOM_SETTINGS)
 @given(data=st.data())
 def test_dopri5_random_scenes_within_10x_rtol(family, data, reference):
@@ -578,7 +581,7 @@ def dome_lift_off_x(x0, v0, radius=1.0, g=G):
     return math.copysign(radius * math.sqrt(1.0 - cos_l**2), v0 if v0 != 0 else x0)
 
 
-@pytest.mark.parametrize("method", PAIRS)
+@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
 def test_lift_off_from_a_dome_to_the_tolerance(method, reference):
     """Frictionless: the lift-off point against the closed form, down to the
     limit cos(theta) = 2/3 from the top; with friction against the reference."""

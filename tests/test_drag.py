@@ -222,7 +222,7 @@ def test_zero_drag_is_bit_identical_for_fixed_steps(method, settings):
     assert on[K.OUT_NREV].max() >= 3
 
 
-@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
 def test_zero_drag_adaptive_agrees_within_tolerance(method):
     """Adaptive pairs with the drag terms compiled in but b = c = 0: the drag
     work is exactly 0, but the error norm is the RMS over five components

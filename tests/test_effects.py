@@ -201,7 +201,9 @@ def test_paper_criterion_on_a_straight_ramp():
         assert np.all(np.isnan(ds.x_lift_off.values))
 
 
-@pytest.mark.parametrize("integrator", [rw.Integrator("euler", 1e-4), rw.Integrator("dop853", rtol=1e-8)],
+@pytest.mark.parametrize("integrator", [rw.Integrator("euler", 1e-4),
+                                        pytest.param(rw.Integrator("dop853", rtol=1e-8),
+                                                     marks=pytest.mark.slow)],
                          ids=["euler", "dop853"])
 def test_paper_criterion_located_on_a_bowl(integrator):
     """Climbing a bowl y = 2 x^2 the slope steepens: eq. (26) starts to hold
@@ -258,7 +260,9 @@ def test_no_lift_off_check_on_convex_ramps_changes_nothing(method):
     assert set(results[0][K.OUT_STATUS].astype(int)) >= {STUCK}
 
 
-@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5",
+# (compile-heavy: each case builds two kernels; rk4 stays in the default run)
+@pytest.mark.parametrize("method", [pytest.param("euler", marks=pytest.mark.slow), "rk4",
+                                    pytest.param("dopri5", marks=pytest.mark.slow),
                                     pytest.param("dop853", marks=pytest.mark.slow)])
 def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
     """mu_k = 0 everywhere: the runner compiles no kinetic friction (the

@@ -75,7 +75,10 @@ def test_every_output_carries_its_schema_attributes(integrator):
 
 def test_bitwise_identical_whatever_the_block_and_tile_size():
     """A trajectory's arithmetic must not depend on its lane, its tile, the
-    number of lanes per block or how a tile's tail is compacted."""
+    number of lanes per block, how a tile's tail is compacted, or how often
+    the scan replays flagged lanes from their checkpoints (6 steps a block,
+    two per lane visit, and t_max = 15 s ends some trajectories inside a
+    block: their replay stops at the step limit)."""
     from rampwork import runner
     from rampwork.core import kernel as K
 
@@ -87,15 +90,17 @@ def test_bitwise_identical_whatever_the_block_and_tile_size():
     settings = np.array([-0.9, 0.9, 1e-3, 15.0])
     spec = scene.ramp.spec
     results = []
-    for lanes, tile in ((64, 4096), (64, 37), (16, 1), (16, 250)):
+    for lanes, tile, knobs in ((64, 4096, {}), (64, 37, {}), (16, 1, {}), (16, 250, {}),
+                               (64, 37, dict(substeps=6, unroll=2))):
         run_batch, _ = K.build_kernel("rk4", spec.height, spec.slope_curvature, name=spec.key,
-                                      check_contact=False, carry_slope=True, lanes=lanes)
+                                      check_contact=False, carry_slope=True, lanes=lanes, **knobs)
         out = np.zeros((K.N_OUTPUTS, plan.size))
         run_batch(inputs, settings, out, scene.ramp.shared_array(), tile)
         results.append(out)
     statuses = set(results[0][K.OUT_STATUS].astype(int))
     assert {1, 2} <= statuses  # the sweep has both stops and exits
     assert results[0][K.OUT_NREV].max() >= 3  # and many reversals
+    assert 4 in statuses  # and timeouts (status 4)
     for out in results[1:]:
         assert np.array_equal(out, results[0], equal_nan=True)
 

@@ -3,14 +3,16 @@
 Why lanes: a loop that carries one trajectory at a time is bound by the latency
 of its divisions.  Here a tile of trajectories is run through a block of
 ``LANES`` lanes stored as structure of arrays; the inner loop does one step for
-every lane with no data-dependent branch, so LLVM turns it into vector code.  A
-lane whose step contains an event (reversal or stop, lift-off, contact switch,
-exit, ``t_max``, divergence) freezes at the start of that step (it stops
-counting steps); every ``N_SUBSTEPS`` steps a scalar pass resolves the frozen
-lanes exactly (the event located inside the step by root finding on the step
-size, to rounding) and refills finished lanes with the next trajectory of the
-tile.  Once a tile has nothing left to load, running lanes are compacted to
-the front so that its tail does not step empty lanes.
+every lane with no data-dependent branch, so LLVM turns it into vector code.
+Every lane steps on regardless of events: a step whose event conditions fire
+(reversal or stop, lift-off, contact switch, exit, divergence) only raises
+the lane's FLAG.  Every ``SUBSTEPS`` steps a scalar pass books the steps of
+the clean lanes, replays each flagged lane (and one that would pass its
+``t_max`` step limit) from the block's checkpoint up to the step that raised
+the event, resolves that event exactly (located inside the step by root
+finding on the step size, to rounding) and refills finished lanes with the
+next trajectory of the tile.  Once a tile has nothing left to load, running
+lanes are compacted to the front so that its tail does not step empty lanes.
 
 Every trajectory sees the same sequence of floating-point operations whatever
 lane, tile, block size or thread runs it, so results are bit-for-bit
@@ -61,7 +63,8 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
- resolve_linear, take_event) = (None,) * 27
+ resolve_linear, take_event, step_and_check, checkpoint_lanes, replay_lane,
+ copy_stepped_state) = (None,) * 31
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -99,18 +102,44 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
                 fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform)
 
 
+def _step_and_check(x, v, fp, fpp, q, d, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
+                    x_lo, x_hi):
+    """One fixed step from (x, v) and whether it is clean, i.e. no event
+    condition fired: ``(x1, v1, dw, dk, dwd, fp1, fpp1, ok)``.  The vector
+    loop and the scalar replay both call this, so they round alike.
+    ``dw < 0``: a step too long for the mode's signs (see _event_values).
+    NaN makes every comparison false, so a non-finite step is not clean."""
+    if not CARRY_SLOPE:
+        fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared,
+                               drag_b, drag_c)
+    ok = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
+    if WORK_SIGN_CHECK:
+        ok = ok & (dw >= 0.0)
+    if DRAG:
+        ok = ok & (dwd >= 0.0)  # drag's power is >= 0 within a mode, as friction's
+    fp1 = fpp1 = 0.0
+    if CHECK_CONTACT or CARRY_SLOPE:
+        fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+    if CHECK_CONTACT:
+        ok = ok & (sn * normal_term(v1, fpp1, g) > 0.0)
+    return x1, v1, dw, dk, dwd, fp1, fpp1, ok
+
+
 def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
-    """One fixed step on lane i, committed only where no event condition fired
-    (a select, not a branch).  A lane whose step raised an event keeps its
-    step-start state, so it recomputes the same step and stays frozen until
-    the scalar pass resolves it; an empty lane has D = 0 and never passes.
-    NaN makes every comparison false, so a non-finite step freezes too."""
+    """UNROLL fixed steps on lane i, always taken; a step whose event
+    conditions fired only adds 1 to the lane's FLAG.  The scan after the
+    block replays a flagged lane from its checkpoint, in scalar, up to the
+    step that raised the event.  Why not freeze the lane here with a select
+    (keep x where the step is not clean): a select against the loaded state
+    compiles to masked stores, which some CPUs (AMD Zen) run many times
+    slower than plain ones; a flag costs an add.  An empty lane has D = 0,
+    is never clean, and the scan ignores it."""
     x = lanes[X * LANES + i]
     v = lanes[V * LANES + i]
     d = lanes[D * LANES + i]
     q = lanes[Q * LANES + i]
     sn = lanes[SN * LANES + i]
-    limit = lanes[LIMIT * LANES + i]
     if UNIFORM_PARAMETERS:
         g, p0, p1, p2, p3 = uniform
     else:
@@ -119,44 +148,25 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
         p1 = lanes[P1 * LANES + i]
         p2 = lanes[P2 * LANES + i]
         p3 = lanes[P3 * LANES + i]
-    steps = lanes[STEPS * LANES + i]
     work = lanes[W * LANES + i]
-    if not CONSTANT_CURVATURE:
-        curvature = lanes[K * LANES + i]
+    curvature = 0.0 if CONSTANT_CURVATURE else lanes[K * LANES + i]
     drag_b = lanes[DRAG_B * LANES + i]
     drag_c = lanes[DRAG_C * LANES + i]
-    drag_work = lanes[WD * LANES + i]
-    if CARRY_SLOPE:
-        fp = lanes[FP * LANES + i]
-        fpp = lanes[FPP * LANES + i]
+    drag_work = lanes[WD * LANES + i] if DRAG else 0.0
+    fp = lanes[FP * LANES + i] if CARRY_SLOPE else 0.0
+    fpp = lanes[FPP * LANES + i] if CARRY_SLOPE else 0.0
+    flag = lanes[FLAG * LANES + i]
     # UNROLL steps with the state in registers: one load and one store of
     # each field per visit instead of per step
     for _ in range(UNROLL):
-        if not CARRY_SLOPE:
-            fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-        x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared,
-                                   drag_b, drag_c)
-        # dw < 0: a step too long for the mode's signs (see _event_values)
-        ok = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo) & (steps < limit)
-        if WORK_SIGN_CHECK:
-            ok = ok & (dw >= 0.0)
-        if DRAG:
-            ok = ok & (dwd >= 0.0)  # drag's power is >= 0 within a mode, as friction's
-        if CHECK_CONTACT or CARRY_SLOPE:
-            fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
-        if CHECK_CONTACT:
-            ok = ok & (sn * normal_term(v1, fpp1, g) > 0.0)
-        x = x1 if ok else x
-        v = v1 if ok else v
-        work += dw if ok else 0.0
+        x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
+            x, v, fp, fpp, q, d, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c, x_lo, x_hi)
+        flag += 0.0 if ok else 1.0
+        work += dw
         if not CONSTANT_CURVATURE:
-            curvature += dk if ok else 0.0
+            curvature += dk
         if DRAG:
-            drag_work += dwd if ok else 0.0
-        steps = steps + 1.0 if ok else steps
-        if CARRY_SLOPE:
-            fp = fp1 if ok else fp
-            fpp = fpp1 if ok else fpp
+            drag_work += dwd
     lanes[X * LANES + i] = x
     lanes[V * LANES + i] = v
     lanes[W * LANES + i] = work
@@ -164,10 +174,93 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
         lanes[K * LANES + i] = curvature
     if DRAG:
         lanes[WD * LANES + i] = drag_work
-    lanes[STEPS * LANES + i] = steps
     if CARRY_SLOPE:
         lanes[FP * LANES + i] = fp
         lanes[FPP * LANES + i] = fpp
+    lanes[FLAG * LANES + i] = flag
+
+
+def _checkpoint_lanes(lanes, n_active):
+    """Save the state the vector loop changes and clear the flags, at the
+    start of a block (vectorised: plain loads and stores)."""
+    for i in range(n_active):
+        copy_stepped_state(lanes, i, True)
+        lanes[FLAG * LANES + i] = 0.0
+
+
+def _copy_stepped_state(lanes, i, to_checkpoint):
+    """Copy the fields the vector loop changes to lane i's checkpoint, or
+    back from it (``to_checkpoint`` False)."""
+    for field, saved in ((X, CX), (V, CV), (W, CW), (K, CK), (WD, CWD), (FP, CFP),
+                         (FPP, CFPP)):
+        if to_checkpoint:
+            lanes[saved * LANES + i] = lanes[field * LANES + i]
+        else:
+            lanes[field * LANES + i] = lanes[saved * LANES + i]
+
+
+def _replay_lane(lanes, i, settings, shared, n_steps, restore):
+    """Lane i's steps in scalar, from its checkpoint (``restore``) or from
+    its state, committing each clean step while the step count stays below
+    the t_max limit, up to ``n_steps``.  Returns the steps taken: fewer than
+    ``n_steps`` leaves the lane at the start of the step that raised an
+    event, for :func:`_resolve_lane`.  The same arithmetic as the vector
+    loop's, so a replayed trajectory is bit-identical to one that never
+    was."""
+    if restore:
+        copy_stepped_state(lanes, i, False)
+    if UNIFORM_PARAMETERS:  # the values the vector loop used
+        g = settings[SET_G]
+        p0 = settings[SET_P0]
+        p1 = settings[SET_P1]
+        p2 = settings[SET_P2]
+        p3 = settings[SET_P3]
+    else:
+        g = lanes[G * LANES + i]
+        p0 = lanes[P0 * LANES + i]
+        p1 = lanes[P1 * LANES + i]
+        p2 = lanes[P2 * LANES + i]
+        p3 = lanes[P3 * LANES + i]
+    x_lo = settings[SET_XLO]
+    x_hi = settings[SET_XHI]
+    h = settings[SET_DT]
+    d = lanes[D * LANES + i]
+    q = lanes[Q * LANES + i]
+    sn = lanes[SN * LANES + i]
+    drag_b = lanes[DRAG_B * LANES + i]
+    drag_c = lanes[DRAG_C * LANES + i]
+    limit = lanes[LIMIT * LANES + i]
+    steps = lanes[STEPS * LANES + i]
+    x = lanes[X * LANES + i]
+    v = lanes[V * LANES + i]
+    fp = lanes[FP * LANES + i] if CARRY_SLOPE else 0.0
+    fpp = lanes[FPP * LANES + i] if CARRY_SLOPE else 0.0
+    taken = 0
+    for _ in range(n_steps):
+        if not steps < limit:
+            break
+        x1, v1, dw, dk, dwd, fp1, fpp1, ok = step_and_check(
+            x, v, fp, fpp, q, d, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c, x_lo, x_hi)
+        if not ok:
+            break
+        x = x1
+        v = v1
+        fp = fp1
+        fpp = fpp1
+        lanes[W * LANES + i] += dw
+        if not CONSTANT_CURVATURE:
+            lanes[K * LANES + i] += dk
+        if DRAG:
+            lanes[WD * LANES + i] += dwd
+        steps += 1.0
+        taken += 1
+    lanes[X * LANES + i] = x
+    lanes[V * LANES + i] = v
+    if CARRY_SLOPE:
+        lanes[FP * LANES + i] = fp
+        lanes[FPP * LANES + i] = fpp
+    lanes[STEPS * LANES + i] = steps
+    return taken
 
 
 # ------------------------------------------------------------------------------
@@ -734,18 +827,26 @@ def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
 
 def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
     """After ``n_substeps`` vector steps: resolve lanes with a pending event
-    (they advanced fewer steps) and stop lanes past the speed bound.  Returns
-    how many lanes finished (now empty).
+    and stop lanes past the speed bound.  Returns how many lanes finished
+    (now empty).
 
     A vectorised pass first counts the lanes that need attention, so that a
-    scan with nothing to do costs a few cycles per lane."""
+    scan with nothing to do costs a few cycles per lane.  For fixed steps it
+    also books the block's steps to the clean lanes (the vector loop does not
+    count them) and marks as pending a lane whose block would pass its t_max
+    step limit, which is then replayed and stops at the limit."""
     flagged = 0
     for i in range(n_active):
         v = lanes[V * LANES + i]
         if ADAPTIVE:
             pending = lanes[PENDING * LANES + i] > 0.0
         else:
-            pending = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i] < n_substeps
+            steps = lanes[STEPS * LANES + i]
+            pending = (lanes[FLAG * LANES + i] > 0.0) | (
+                steps + n_substeps > lanes[LIMIT * LANES + i])
+            # plain stores of selected values (no masked stores, see _fixed_step_lane)
+            lanes[STEPS * LANES + i] = steps + (0.0 if pending else n_substeps)
+            lanes[FLAG * LANES + i] = 1.0 if pending else 0.0
         attention = (lanes[TRAJ * LANES + i] >= 0.0) & (
             pending | (v * v > lanes[VLIM2 * LANES + i]))
         flagged += 1 if attention else 0
@@ -755,10 +856,19 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
     for i in range(n_active):
         if lanes[TRAJ * LANES + i] < 0.0:
             continue
-        advanced = lanes[STEPS * LANES + i] - lanes[BEFORE * LANES + i]
-        if advanced > 0.0:
-            lanes[CASCADE * LANES + i] = 0.0
-        if (lanes[PENDING * LANES + i] == 0.0) if ADAPTIVE else (advanced >= n_substeps):
+        if ADAPTIVE:
+            clean = lanes[PENDING * LANES + i] == 0.0
+            if lanes[STEPS * LANES + i] > lanes[CX * LANES + i]:
+                lanes[CASCADE * LANES + i] = 0.0
+        else:
+            if lanes[FLAG * LANES + i] > 0.0:
+                advanced = replay_lane(lanes, i, settings, shared, n_substeps, True)
+            else:
+                advanced = n_substeps
+            clean = advanced == n_substeps
+            if advanced > 0:
+                lanes[CASCADE * LANES + i] = 0.0
+        if clean:
             v = lanes[V * LANES + i]
             if v * v <= lanes[VLIM2 * LANES + i]:
                 continue
@@ -807,8 +917,11 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
         next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
     n_active = LANES if next_j < stop else active_span(compact_lanes(lanes))
     while n_active > 0:
-        for i in range(n_active):
-            lanes[BEFORE * LANES + i] = lanes[STEPS * LANES + i]
+        if ADAPTIVE:  # the step counts at the block's start (for CASCADE)
+            for i in range(n_active):
+                lanes[CX * LANES + i] = lanes[STEPS * LANES + i]
+        else:
+            checkpoint_lanes(lanes, n_active)
         advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
         if scan_lanes(lanes, settings, outputs, shared, SUBSTEPS, n_active) == 0:
             continue
@@ -847,13 +960,13 @@ def _trace_one(j, inputs, settings, shared, every, trace):
         trace[3, 0] = 0.0
         count = 1
     while running:
-        lanes[BEFORE * LANES] = lanes[STEPS * LANES]
-        advance_lanes(lanes, settings, shared, 1, 1)
+        before = lanes[STEPS * LANES]
         if ADAPTIVE:  # a rejected attempt also takes no step
+            advance_lanes(lanes, settings, shared, 1, 1)
             event = lanes[PENDING * LANES] > 0.0
         else:
-            event = lanes[STEPS * LANES] == lanes[BEFORE * LANES]
-        stepped = lanes[STEPS * LANES] > lanes[BEFORE * LANES]
+            event = replay_lane(lanes, 0, settings, shared, 1, False) == 0
+        stepped = lanes[STEPS * LANES] > before
         if stepped:
             lanes[CASCADE * LANES] = 0.0
         if event:
@@ -896,8 +1009,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n) in parallel;
     ``lanes``, ``substeps`` (steps between scalar passes), ``chains`` (1 or
     2 lane-loop halves side by side) and ``unroll`` (fixed steps per lane
-    visit, state in registers; default 2 for the first-order methods) are
-    tuning knobs
+    visit, state in registers; default 1) are tuning knobs
     that do not change results;
     ``drag_linear``, ``drag_quadratic``: compile air drag's linear
     (``IN_DRAG_B``) and quadratic (``IN_DRAG_C``) terms and the drag work
@@ -909,9 +1021,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     the acceleration without the friction term, no friction work (the same
     results, but perhaps the sign of a zero); ``constant_curvature`` (a
     family whose f'' is the same all along the ramp: straight, quadratic)
-    accumulates no curvature integral, convexity_mean being f'' itself (the
-    adaptive pairs then leave it out of their error norm, whose mean square
-    runs over the remaining components); ``uniform_parameters`` (g and the
+    reports f'' itself as convexity_mean and, with fixed steps, accumulates
+    no curvature integral (the adaptive pairs keep it: it is part of their
+    error norm); ``uniform_parameters`` (g and the
     ramp parameters the same for every trajectory: ``settings[SET_G],
     settings[SET_P0..3]``) lets the lane loops keep them in registers;
     ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
@@ -934,9 +1046,10 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     if substeps is None:
         substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
     if unroll is None:
-        # first-order steps are so cheap that loading and storing the lane
-        # state dominates: two steps per visit measured 5-16 % faster (Euler)
-        unroll = 2 if method in ("euler", "semi_implicit_euler") else 1
+        # with the flag design (see _fixed_step_lane) one step per visit is
+        # fastest for every method: Euler 1.27 ns/step against 1.86 with two
+        # (AMD EPYC, AVX2, one thread, the throughput benchmark's sweep)
+        unroll = 1
     if substeps % unroll:
         raise ValueError(f"substeps ({substeps}) must be a multiple of unroll ({unroll})")
     variant = f"{name}_{method}_{flags}_{lanes}_{substeps}_{chains}_{unroll}"
@@ -999,7 +1112,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("event_values", _event_values), ("event_value", _event_value),
             ("locate_event", _locate_event), ("apply_step", _apply_step),
             ("start_adaptive", _no_adaptive_start),
-            ("fixed_step_lane", _fixed_step_lane),
+            ("step_and_check", _step_and_check), ("fixed_step_lane", _fixed_step_lane),
+            ("copy_stepped_state", _copy_stepped_state),
+            ("checkpoint_lanes", _checkpoint_lanes), ("replay_lane", _replay_lane),
         )
     if paper_criterion:
         add("_paper_holds", _paper_holds, **no_refcount)

@@ -4,8 +4,7 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # --- lane state: one flat float64 array, field F of lane i at F * LANES + i ----
 # T, XM, SM: time, position and step count at the start of the current mode
 # (time and path are derived from them, which keeps the hot loop lean);
-# LIMIT: step count at which t_max would be passed; BEFORE: step count at the
-# last scan (a lane that advanced less than N_SUBSTEPS has a pending event);
+# LIMIT: step count at which t_max would be passed;
 # CASCADE: events resolved since the lane last took a full step; VLIM2, ELIM:
 # the divergence bounds on v^2 and on the mechanical energy.
 # Adaptive methods only: H, the lane's next step size; LERR, log2 of the last
@@ -19,10 +18,15 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # FRESH: 1 from a two-sided contact switch until the next accepted step.
 # Air drag (kernels built with drag only): DRAG_B, DRAG_C, the coefficients b
 # (1/s) and c (1/m); WD, the work against drag per unit mass.
+# Fixed-step methods only: FLAG counts the steps of the current block of
+# SUBSTEPS whose event conditions fired (the vector loop steps on
+# regardless); CX .. CFPP hold the state at the block's start, from which a
+# flagged lane is replayed in scalar up to its event.
 (X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
- STEPS, BEFORE, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
- H, LERR, REJ, NREJ, A1, EEST, PENDING, DRAG_B, DRAG_C, WD, XP, PXM, FRESH) = range(43)
-N_FIELDS = 43
+ STEPS, FLAG, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
+ H, LERR, REJ, NREJ, A1, EEST, PENDING, DRAG_B, DRAG_C, WD, XP, PXM, FRESH,
+ CX, CV, CW, CK, CWD, CFP, CFPP) = range(50)
+N_FIELDS = 50
 # After the lanes, a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
