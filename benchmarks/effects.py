@@ -472,23 +472,28 @@ def closed_form_table(args, log):
 # Scene: explicit Euler, y = height + slope x + curvature x^2 / 2 with curvature
 # > 0 (n = g + v^2 c > 0: no lift-off possible), one-sided, mu_s = mu_k, g and
 # the ramp fixed (scalars, not per-trajectory inputs), x0, v0, mu per
-# trajectory.  Same structure as any fast batch kernel here: 64 lanes in
-# lock-step stored as structure of arrays at constant offsets, a branch-free
-# step that commits only where no event fired, a scalar pass every 16 steps
-# that solves each event inside its step in closed form (Euler: x and v are
-# linear in the step size) and refills finished lanes.  It writes the same
-# output rows as rampwork's kernel (per unit mass); the convexity mean is the
-# constant curvature (no integral), the path is banked per mode, the work is
-# accumulated per step.  Divergence guards as rampwork's: non-finite state,
-# speed bound, energy rise, event cascade.
+# trajectory.  Built like rampwork's fixed-step kernel, so that the two compare
+# like with like: 64 lanes in lock-step, structure of arrays at constant
+# offsets.  Every lane takes every step; a step whose event conditions fire
+# only raises the lane's flag (freezing the lane with a select against its
+# stored state compiles to masked stores, many times slower on AMD Zen).  Every
+# 16 steps a scalar pass books the clean lanes' steps, replays a flagged lane
+# from the block's checkpoint with the same step function up to its event,
+# solves that event inside the step in closed form (Euler: x and v are linear
+# in the step size) and refills finished lanes.  Outputs: rampwork's rows (per
+# unit mass); the convexity mean is the constant curvature (no integral), the
+# path is banked per mode, the work accumulated per step.  Divergence guards as
+# rampwork's: non-finite state, speed bound, energy rise, event cascade.
 HL = 64  # lanes
 HSUB = 16  # steps between scalar passes
-HUNROLL = 2  # steps per lane visit, state in registers
+HUNROLL = 1  # steps per lane visit, state in registers (1: the fastest here, as for rampwork's Euler)
 HCHAINS = 2  # a full block runs its two halves side by side
 HVB = 16  # vector block: the tail's span is rounded up to it
-(HX, HV, HW, HSTEPS, HD, HQ, HLIM, HBEFORE, HTRAJ, HMU, HT0, HSM, HXM, HPATH, HNREV, HE0, HELIM,
- HVLIM2, HCASC, HPC, HPS, HGG, HK) = range(23)
-HNF = 23
+# HFLAG: steps of the current block whose event conditions fired;
+# HCX .. HCK: the state at the block's start, from which a flagged lane is replayed
+(HX, HV, HW, HSTEPS, HD, HQ, HLIM, HFLAG, HTRAJ, HMU, HT0, HSM, HXM, HPATH, HNREV, HE0, HELIM,
+ HVLIM2, HCASC, HPC, HPS, HGG, HK, HCX, HCV, HCW, HCK) = range(27)
+HNF = 27
 #: False: the kernel for the scene.  True (a diagnostic variant, built with
 #: build_hand_general): the same kernel with three of rampwork's general
 #: features added, to see what the gap is made of: the ramp parameters and g
@@ -618,41 +623,107 @@ def _h_load(ln, i, j, inputs, outputs, pr):
 
 
 @_scalar
+def _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h):
+    """One Euler step from (x, v) and whether it is clean (no event condition
+    fired): (x1, v1, dw, dk, clean).  The vector loop and the scalar replay
+    both call it, so they round alike.  NaN fails every comparison: a
+    non-finite step is not clean."""
+    fp = fma(c, x, s)
+    n = fma(v * v, c, g)
+    a = -n * (fp + q) / fma(fp, fp, 1.0)
+    x1 = fma(h, v, x)
+    v1 = fma(h, a, v)
+    dw = h * q * n * v
+    clean = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
+    dk = 0.0
+    if GENERAL:
+        clean = clean & (dw >= 0.0)
+        dk = h * c * d * v
+    return x1, v1, dw, dk, clean
+
+
+@_scalar
 def _h_lane(ln, i, c, s, g, x_lo, x_hi, h):
-    """HUNROLL Euler steps on lane i, each committed only where no event fired."""
+    """HUNROLL Euler steps on lane i, always taken (plain stores); a step that
+    is not clean adds 1 to the lane's flag.  An empty lane (D = 0) is never
+    clean; the scan ignores it."""
     x = ln[HX * HL + i]
     v = ln[HV * HL + i]
     w = ln[HW * HL + i]
-    k = ln[HSTEPS * HL + i]
     d = ln[HD * HL + i]
     q = ln[HQ * HL + i]
-    limit = ln[HLIM * HL + i]
+    flag = ln[HFLAG * HL + i]
     if GENERAL:
         c = ln[HPC * HL + i]
         s = ln[HPS * HL + i]
         g = ln[HGG * HL + i]
         kk = ln[HK * HL + i]
     for _ in range(HUNROLL):
-        fp = fma(c, x, s)
-        n = fma(v * v, c, g)
-        a = -n * (fp + q) / fma(fp, fp, 1.0)
-        x1 = fma(h, v, x)
-        v1 = fma(h, a, v)
-        dw = h * q * n * v
-        ok = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo) & (k < limit)
+        x, v, dw, dk, clean = _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h)
+        flag += 0.0 if clean else 1.0
+        w += dw
         if GENERAL:
-            ok = ok & (dw >= 0.0)
-            kk += h * c * d * v if ok else 0.0
-        x = x1 if ok else x
-        v = v1 if ok else v
-        w += dw if ok else 0.0
-        k = k + 1.0 if ok else k
+            kk += dk
     if GENERAL:
         ln[HK * HL + i] = kk
     ln[HX * HL + i] = x
     ln[HV * HL + i] = v
     ln[HW * HL + i] = w
-    ln[HSTEPS * HL + i] = k
+    ln[HFLAG * HL + i] = flag
+
+
+@_scalar
+def _h_checkpoint(ln, n_active):
+    """At a block's start: save what the vector loop changes, clear the flags
+    (vectorised)."""
+    for i in range(n_active):
+        ln[HCX * HL + i] = ln[HX * HL + i]
+        ln[HCV * HL + i] = ln[HV * HL + i]
+        ln[HCW * HL + i] = ln[HW * HL + i]
+        if GENERAL:
+            ln[HCK * HL + i] = ln[HK * HL + i]
+        ln[HFLAG * HL + i] = 0.0
+
+
+@_scalar
+def _h_replay(ln, i, pr):
+    """Lane i's block again, in scalar from its checkpoint: commits clean
+    steps while the step count is below the t_max limit, up to HSUB.  Returns
+    the steps taken; fewer than HSUB leaves the lane at the start of the step
+    that raised the event, for _h_resolve."""
+    c, s, g = pr[PC], pr[PS], pr[PG]
+    if GENERAL:  # the values the vector loop used
+        c = ln[HPC * HL + i]
+        s = ln[HPS * HL + i]
+        g = ln[HGG * HL + i]
+        kk = ln[HCK * HL + i]
+    x_lo, x_hi, h = pr[PXLO], pr[PXHI], pr[PDT]
+    x = ln[HCX * HL + i]
+    v = ln[HCV * HL + i]
+    w = ln[HCW * HL + i]
+    d = ln[HD * HL + i]
+    q = ln[HQ * HL + i]
+    steps = ln[HSTEPS * HL + i]
+    limit = ln[HLIM * HL + i]
+    taken = 0
+    while taken < HSUB and steps < limit:
+        x1, v1, dw, dk, clean = _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h)
+        if not clean:
+            break
+        x = x1
+        v = v1
+        w += dw
+        if GENERAL:
+            kk += dk
+        steps += 1.0
+        taken += 1
+    if GENERAL:
+        ln[HK * HL + i] = kk
+    ln[HX * HL + i] = x
+    ln[HV * HL + i] = v
+    ln[HW * HL + i] = w
+    ln[HSTEPS * HL + i] = steps
+    return taken
 
 
 @_scalar
@@ -758,24 +829,30 @@ def _h_resolve(ln, i, outputs, pr):
 
 @_scalar
 def _h_scan(ln, outputs, pr, n_active):
-    """Resolve lanes with a pending event (they advanced fewer than HSUB steps)
-    and stop lanes past the speed bound; returns how many lanes were freed."""
-    flagged = 0
-    for i in range(n_active):  # vectorised count first: usually nothing to do
+    """After HSUB vector steps: book the steps of the clean lanes, replay and
+    resolve the pending ones (flagged, or the block would pass the t_max step
+    limit) and stop lanes past the speed bound; returns how many lanes were
+    freed."""
+    attention = 0
+    for i in range(n_active):  # vectorised first pass: usually nothing else to do
+        steps = ln[HSTEPS * HL + i]
+        pending = (ln[HFLAG * HL + i] > 0.0) | (steps + HSUB > ln[HLIM * HL + i])
+        # plain stores of selected values (no masked stores)
+        ln[HSTEPS * HL + i] = steps + (0.0 if pending else HSUB)
+        ln[HFLAG * HL + i] = 1.0 if pending else 0.0
         v = ln[HV * HL + i]
-        attention = (ln[HTRAJ * HL + i] >= 0.0) & (
-            (ln[HSTEPS * HL + i] - ln[HBEFORE * HL + i] < HSUB) | (v * v > ln[HVLIM2 * HL + i]))
-        flagged += 1 if attention else 0
-    if flagged == 0:
+        needs = (ln[HTRAJ * HL + i] >= 0.0) & (pending | (v * v > ln[HVLIM2 * HL + i]))
+        attention += 1 if needs else 0
+    if attention == 0:
         return 0
     freed = 0
     for i in range(n_active):
         if ln[HTRAJ * HL + i] < 0.0:
             continue
-        advanced = ln[HSTEPS * HL + i] - ln[HBEFORE * HL + i]
-        if advanced > 0.0:
+        advanced = _h_replay(ln, i, pr) if ln[HFLAG * HL + i] > 0.0 else HSUB
+        if advanced > 0:
             ln[HCASC * HL + i] = 0.0
-        if advanced >= HSUB:
+        if advanced == HSUB:
             v = ln[HV * HL + i]
             if v * v <= ln[HVLIM2 * HL + i]:
                 continue
@@ -823,8 +900,7 @@ def _h_tile(start, stop, inputs, outputs, pr):
         next_j = _h_fill(ln, i, next_j, stop, inputs, outputs, pr)
     n_active = HL if next_j < stop else _h_compact(ln)
     while n_active > 0:
-        for i in range(n_active):
-            ln[HBEFORE * HL + i] = ln[HSTEPS * HL + i]
+        _h_checkpoint(ln, n_active)
         _h_advance(ln, n_active, c, s, g, x_lo, x_hi, h)
         if _h_scan(ln, outputs, pr, n_active) == 0:
             continue
@@ -853,8 +929,9 @@ def build_hand_general():
     from rampwork.core.jit import specialise
 
     constants = {"GENERAL": True}
-    for name in ("_h_rest", "_h_empty", "_h_rebase", "_h_finish", "_h_load", "_h_lane", "_h_advance",
-                 "_h_resolve", "_h_scan", "_h_compact", "_h_fill"):
+    for name in ("_h_rest", "_h_empty", "_h_rebase", "_h_finish", "_h_load", "_h_step", "_h_lane",
+                 "_h_checkpoint", "_h_replay", "_h_advance", "_h_resolve", "_h_scan", "_h_compact",
+                 "_h_fill"):  # callees before callers: each copy binds the ones already made
         constants[name] = specialise(globals()[name].py_func, f"hand{name}_general", constants, _nrt=False)
     constants["_h_tile"] = specialise(_h_tile.py_func, "hand_h_tile_general", constants)
     return specialise(hand_batch.py_func, "hand_batch_general", constants, parallel=True)

@@ -46,12 +46,12 @@ step = dense_output = ramp_slope_curvature = None
 CHECK_CONTACT = True
 ONE_SIDED = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel.py)
-UNIFORM_PARAMETERS = False  # g and the ramp parameters are the run's settings
 LANES = 64
 PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
 CHAINS = 2
 (error_norm2, error_norm2_drag, apply_event, rebase, finish_lane, dense_value,
- locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds) = (None,) * 12
+ locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds,
+ lane_parameters, uniform_parameters) = (None,) * 14
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -71,8 +71,17 @@ def _contact_holds(sn, n_end, n_low, n_high):
 # vector part
 # ------------------------------------------------------------------------------
 def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
-    """``n_attempts`` step attempts on lanes 0 .. n_active-1, each lane with its
-    own step size.
+    """``n_attempts`` (even) step attempts on lanes 0 .. n_active-1, each lane
+    with its own step size.
+
+    Attempts alternate between the two banks of the state (layout.BANK_B):
+    the first reads bank A and writes bank B, the next reads B and writes A,
+    so the state is back in bank A for the scan.  Why: an attempt that keeps
+    the old state where it does not commit, written back in place (``x = x1
+    if commit else x``), compiles to masked stores, which some CPUs (AMD Zen)
+    run many times slower than plain ones; written to the other bank it is a
+    blend and a plain store.  The bank offsets are constants here, so the
+    compiler sees that reads and writes do not overlap.
 
     Each attempt is a chain of seven dependent divisions (about 500 cycles of
     latency for one vector of lanes), longer than the core's reorder window,
@@ -86,43 +95,59 @@ def _advance_lanes_adaptive(lanes, settings, shared, n_attempts, n_active):
     atol = settings[SET_ATOL]
     h_max = settings[SET_HMAX]
     h_min = settings[SET_HMIN]
-    # g and the ramp parameters, where the whole run shares them (as kernel.py)
-    uniform = ((settings[SET_G], settings[SET_P0], settings[SET_P1], settings[SET_P2],
-                settings[SET_P3]) if UNIFORM_PARAMETERS else (0.0, 0.0, 0.0, 0.0, 0.0))
+    uniform = uniform_parameters(settings)  # see parameters.py
+    limits = (x_lo, x_hi, t_max, rtol, atol, h_max, h_min)
     if CHAINS == 2 and n_active > LANES // 2:
-        for _ in range(n_attempts):
+        for _ in range(n_attempts // 2):
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
-                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, uniform)
-                attempt(lanes, i + LANES // 2, shared, x_lo, x_hi, t_max, rtol, atol,
-                        h_max, h_min, uniform)
+                attempt(lanes, i, 0, BANK_B, shared, limits, uniform)
+                attempt(lanes, i + LANES // 2, 0, BANK_B, shared, limits, uniform)
+            for i in range(LANES // 2):
+                attempt(lanes, i, BANK_B, 0, shared, limits, uniform)
+                attempt(lanes, i + LANES // 2, BANK_B, 0, shared, limits, uniform)
     else:  # a tile's tail
-        for _ in range(n_attempts):
+        for _ in range(n_attempts // 2):
             for i in range(n_active):
-                attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, uniform)
+                attempt(lanes, i, 0, BANK_B, shared, limits, uniform)
+            for i in range(n_active):
+                attempt(lanes, i, BANK_B, 0, shared, limits, uniform)
 
 
-def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, uniform):
-    """One step attempt on lane i.  Branch-free, as in the fixed-step kernel:
-    the outcome (commit, reject or freeze) is selected, not branched on."""
-    x = lanes[X * LANES + i]
-    v = lanes[V * LANES + i]
+def _attempt_once(lanes, i, settings, shared):
+    """One step attempt on lane i alone, its state back in bank A (for
+    recording a single trajectory, attempt by attempt)."""
+    uniform = uniform_parameters(settings)
+    limits = (settings[SET_XLO], settings[SET_XHI], settings[SET_TMAX], settings[SET_RTOL],
+              settings[SET_ATOL], settings[SET_HMAX], settings[SET_HMIN])
+    attempt(lanes, i, 0, BANK_B, shared, limits, uniform)
+    for field in range(N_BANKED):
+        if (field == WD and not DRAG) or (field == FRESH and not (CHECK_CONTACT and not ONE_SIDED)):
+            continue  # fields this kernel's attempt does not carry
+        lanes[field * LANES + i] = lanes[(field + BANK_B) * LANES + i]
+
+
+def _attempt(lanes, i, src, dst, shared, limits, uniform):
+    """One step attempt on lane i: the banked state (layout.N_BANKED) read
+    from bank ``src``, written to bank ``dst``; the counts in place.
+    Branch-free, as in the fixed-step kernel: the outcome (commit, reject or
+    freeze) is selected, not branched on."""
+    x_lo, x_hi, t_max, rtol, atol, h_max, h_min = limits
+    x = lanes[(X + src) * LANES + i]
+    v = lanes[(V + src) * LANES + i]
     d = lanes[D * LANES + i]
-    if UNIFORM_PARAMETERS:
-        g, p0, p1, p2, p3 = uniform
-    else:
-        g = lanes[G * LANES + i]
-        p0 = lanes[P0 * LANES + i]
-        p1 = lanes[P1 * LANES + i]
-        p2 = lanes[P2 * LANES + i]
-        p3 = lanes[P3 * LANES + i]
-    fp = lanes[FP * LANES + i]
-    fpp = lanes[FPP * LANES + i]
-    a1 = lanes[A1 * LANES + i]
-    h = lanes[H * LANES + i]
-    t = lanes[T * LANES + i]
-    w = lanes[W * LANES + i]
-    k = lanes[K * LANES + i]
-    wd = lanes[WD * LANES + i]
+    g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform)
+    fp = lanes[(FP + src) * LANES + i]
+    fpp = lanes[(FPP + src) * LANES + i]
+    a1 = lanes[(A1 + src) * LANES + i]
+    h = lanes[(H + src) * LANES + i]
+    t = lanes[(T + src) * LANES + i]
+    w = lanes[(W + src) * LANES + i]
+    k = lanes[(K + src) * LANES + i]
+    wd = lanes[(WD + src) * LANES + i] if DRAG else 0.0
+    last_log2_error = lanes[(LERR + src) * LANES + i]
+    rejected_before = lanes[(REJ + src) * LANES + i]
+    two_sided_contact = CHECK_CONTACT and not ONE_SIDED
+    fresh = lanes[(FRESH + src) * LANES + i] if two_sided_contact else 0.0
     frozen = lanes[PENDING * LANES + i] > 0.0
     (x1, v1, dw, dk, a7, fp7, fpp7, ex, ev, ew, ek, n_low, n_high, fx, fv, fw, fk,
      dwd, ed, fd) = step(
@@ -159,35 +184,35 @@ def _attempt(lanes, i, shared, x_lo, x_hi, t_max, rtol, atol, h_max, h_min, unif
             # whatever the step size, so the test would shrink the step to
             # nothing.  The first step of the new mode is exempt (a sign change
             # at any stage or at its end is still caught by `holds`).
-            rough = rough & (not lanes[FRESH * LANES + i] > 0.0)
+            rough = rough & (not fresh > 0.0)
         accepted = accepted & (not rough)
     commit = accepted & (not event) & (not frozen)
     hold = frozen | (accepted & event)
     log2_error = (0.5 * log2_approx(err2 if err2 > ERROR_TINY else ERROR_TINY)
                   if bounded else LOG2_ERROR_BAD)
-    factor = step_factor(log2_error, lanes[LERR * LANES + i], accepted,
-                         lanes[REJ * LANES + i] > 0.0, PI_ALPHA, PI_BETA)
+    factor = step_factor(log2_error, last_log2_error, accepted, rejected_before > 0.0,
+                         PI_ALPHA, PI_BETA)
     factor = min(factor, CONTACT_SHRINK) if rough else factor
     h_new = min(h * factor, h_max)
-    lanes[X * LANES + i] = x1 if commit else x
-    lanes[V * LANES + i] = v1 if commit else v
-    lanes[W * LANES + i] = w1 if commit else w
-    lanes[K * LANES + i] = k1 if commit else k
+    lanes[(X + dst) * LANES + i] = x1 if commit else x
+    lanes[(V + dst) * LANES + i] = v1 if commit else v
+    lanes[(W + dst) * LANES + i] = w1 if commit else w
+    lanes[(K + dst) * LANES + i] = k1 if commit else k
     if DRAG:
-        lanes[WD * LANES + i] = wd1 if commit else wd
-    lanes[FP * LANES + i] = fp7 if commit else fp
-    lanes[FPP * LANES + i] = fpp7 if commit else fpp
-    lanes[A1 * LANES + i] = a7 if commit else a1
-    lanes[T * LANES + i] = t + h if commit else t
-    if CHECK_CONTACT and not ONE_SIDED:
-        lanes[FRESH * LANES + i] = 0.0 if commit else lanes[FRESH * LANES + i]
+        lanes[(WD + dst) * LANES + i] = wd1 if commit else wd
+    lanes[(FP + dst) * LANES + i] = fp7 if commit else fp
+    lanes[(FPP + dst) * LANES + i] = fpp7 if commit else fpp
+    lanes[(A1 + dst) * LANES + i] = a7 if commit else a1
+    lanes[(T + dst) * LANES + i] = t + h if commit else t
+    if two_sided_contact:
+        lanes[(FRESH + dst) * LANES + i] = 0.0 if commit else fresh
+    lanes[(LERR + dst) * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit
+                                       else last_log2_error)
+    lanes[(REJ + dst) * LANES + i] = rejected_before if hold else (0.0 if accepted else 1.0)
+    lanes[(H + dst) * LANES + i] = h if hold else h_new
     lanes[STEPS * LANES + i] += 1.0 if commit else 0.0
     lanes[EEST * LANES + i] += abs(ew) if commit else 0.0
-    lanes[LERR * LANES + i] = (max(log2_error, LOG2_ERROR_FLOOR) if commit
-                               else lanes[LERR * LANES + i])
     lanes[NREJ * LANES + i] += 0.0 if (accepted | frozen) else 1.0
-    lanes[REJ * LANES + i] = lanes[REJ * LANES + i] if hold else (0.0 if accepted else 1.0)
-    lanes[H * LANES + i] = h if hold else h_new
     lanes[PENDING * LANES + i] = 1.0 if (hold | (h_new < h_min)) else 0.0
 
 

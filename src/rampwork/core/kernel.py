@@ -38,6 +38,7 @@ from .jit import fma, specialise
 from .physics import (acceleration, acceleration_frictionless, departure_direction, drag_rate,
                       normal_term, specific_energy)
 from . import adaptive as adaptive_parts
+from . import parameters
 from . import steppers
 from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 
@@ -64,7 +65,7 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
  resolve_linear, take_event, step_and_check, checkpoint_lanes, replay_lane,
- copy_stepped_state) = (None,) * 31
+ copy_stepped_state, attempt_once, lane_parameters, uniform_parameters) = (None,) * 34
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -87,10 +88,7 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
-    # g and the ramp parameters, where the whole run shares them: scalars in
-    # registers instead of five more lane loads a step
-    uniform = ((settings[SET_G], settings[SET_P0], settings[SET_P1], settings[SET_P2],
-                settings[SET_P3]) if UNIFORM_PARAMETERS else (0.0, 0.0, 0.0, 0.0, 0.0))
+    uniform = uniform_parameters(settings)  # see parameters.py
     if CHAINS == 2 and n_active > LANES // 2:
         for _ in range(n_substeps // UNROLL):
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
@@ -140,14 +138,7 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
     d = lanes[D * LANES + i]
     q = lanes[Q * LANES + i]
     sn = lanes[SN * LANES + i]
-    if UNIFORM_PARAMETERS:
-        g, p0, p1, p2, p3 = uniform
-    else:
-        g = lanes[G * LANES + i]
-        p0 = lanes[P0 * LANES + i]
-        p1 = lanes[P1 * LANES + i]
-        p2 = lanes[P2 * LANES + i]
-        p3 = lanes[P3 * LANES + i]
+    g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform)
     work = lanes[W * LANES + i]
     curvature = 0.0 if CONSTANT_CURVATURE else lanes[K * LANES + i]
     drag_b = lanes[DRAG_B * LANES + i]
@@ -209,18 +200,8 @@ def _replay_lane(lanes, i, settings, shared, n_steps, restore):
     was."""
     if restore:
         copy_stepped_state(lanes, i, False)
-    if UNIFORM_PARAMETERS:  # the values the vector loop used
-        g = settings[SET_G]
-        p0 = settings[SET_P0]
-        p1 = settings[SET_P1]
-        p2 = settings[SET_P2]
-        p3 = settings[SET_P3]
-    else:
-        g = lanes[G * LANES + i]
-        p0 = lanes[P0 * LANES + i]
-        p1 = lanes[P1 * LANES + i]
-        p2 = lanes[P2 * LANES + i]
-        p3 = lanes[P3 * LANES + i]
+    # the values the vector loop used
+    g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform_parameters(settings))
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
@@ -473,10 +454,10 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
 
 def _new_lanes():
     """A block of LANES empty lanes and its tile scratch (nothing cached)."""
-    lanes = np.zeros(N_FIELDS * LANES + N_SCRATCH)
+    lanes = np.zeros(N_LANE_FIELDS * LANES + N_SCRATCH)
     for i in range(LANES):
         make_empty(lanes, i)
-    lanes[N_FIELDS * LANES:] = np.nan
+    lanes[N_LANE_FIELDS * LANES:] = np.nan
     return lanes
 
 
@@ -551,7 +532,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     rebase(lanes, i, 0.0, settings)
     lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
     # divergence bound: the speed can never exceed what the energy allows
-    scratch = N_FIELDS * LANES
+    scratch = N_LANE_FIELDS * LANES
     if not (lanes[scratch + RANGE_P0] == p0 and lanes[scratch + RANGE_P1] == p1
             and lanes[scratch + RANGE_P2] == p2 and lanes[scratch + RANGE_P3] == p3):
         f_low = math.inf
@@ -858,7 +839,7 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
             continue
         if ADAPTIVE:
             clean = lanes[PENDING * LANES + i] == 0.0
-            if lanes[STEPS * LANES + i] > lanes[CX * LANES + i]:
+            if lanes[STEPS * LANES + i] > lanes[BLOCK_STEPS * LANES + i]:
                 lanes[CASCADE * LANES + i] = 0.0
         else:
             if lanes[FLAG * LANES + i] > 0.0:
@@ -919,7 +900,7 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
     while n_active > 0:
         if ADAPTIVE:  # the step counts at the block's start (for CASCADE)
             for i in range(n_active):
-                lanes[CX * LANES + i] = lanes[STEPS * LANES + i]
+                lanes[BLOCK_STEPS * LANES + i] = lanes[STEPS * LANES + i]
         else:
             checkpoint_lanes(lanes, n_active)
         advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
@@ -962,7 +943,7 @@ def _trace_one(j, inputs, settings, shared, every, trace):
     while running:
         before = lanes[STEPS * LANES]
         if ADAPTIVE:  # a rejected attempt also takes no step
-            advance_lanes(lanes, settings, shared, 1, 1)
+            attempt_once(lanes, 0, settings, shared)
             event = lanes[PENDING * LANES] > 0.0
         else:
             event = replay_lane(lanes, 0, settings, shared, 1, False) == 0
@@ -1052,6 +1033,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         unroll = 1
     if substeps % unroll:
         raise ValueError(f"substeps ({substeps}) must be a multiple of unroll ({unroll})")
+    if adaptive and substeps % 2:
+        raise ValueError(f"substeps ({substeps}) must be even for an adaptive pair: its attempts "
+                         "alternate between two banks of the lane state")
     variant = f"{name}_{method}_{flags}_{lanes}_{substeps}_{chains}_{unroll}"
     constants = {
         "ramp_height": ramp_height_fn,
@@ -1086,6 +1070,8 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
     # atomic incref/decref pairs, which cost more than the event arithmetic
     # itself (measured: 20-25 % of the whole run on an event-rich sweep).
     no_refcount = {"_nrt": False}
+    add("lane_parameters", parameters._lane_parameters, **no_refcount)
+    add("uniform_parameters", parameters._uniform_parameters, **no_refcount)
 
     if adaptive:
         pair = ADAPTIVE_STEPPERS[method]
@@ -1100,6 +1086,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         method_parts = (
             ("contact_holds", adaptive_parts._contact_holds),
             ("attempt", adaptive_parts._attempt),
+            ("attempt_once", adaptive_parts._attempt_once),
             ("start_adaptive", adaptive_parts._start_adaptive),
             ("dense_value", adaptive_parts._dense_value),
             ("locate_dense", adaptive_parts._locate_dense),

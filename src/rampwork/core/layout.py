@@ -21,13 +21,23 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # Fixed-step methods only: FLAG counts the steps of the current block of
 # SUBSTEPS whose event conditions fired (the vector loop steps on
 # regardless); CX .. CFPP hold the state at the block's start, from which a
-# flagged lane is replayed in scalar up to its event.
-(X, V, FP, FPP, Q, D, SN, W, S, K, T, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
+# flagged lane is replayed in scalar up to its event.  Adaptive methods only:
+# BLOCK_STEPS, the step count at the block's start (a lane that stepped since
+# has made progress: its event cascade count restarts).
+# The first N_BANKED fields are the state an adaptive attempt may or may not
+# commit.  They have a second bank, fields BANK_B .. BANK_B + N_BANKED - 1:
+# attempts alternate reading one bank and writing the other (see
+# adaptive._advance_lanes_adaptive), so every store is unconditional.
+(X, V, FP, FPP, W, K, WD, A1, T, H, LERR, REJ, FRESH,
+ Q, D, SN, S, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
  STEPS, FLAG, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
- H, LERR, REJ, NREJ, A1, EEST, PENDING, DRAG_B, DRAG_C, WD, XP, PXM, FRESH,
- CX, CV, CW, CK, CWD, CFP, CFPP) = range(50)
-N_FIELDS = 50
-# After the lanes, a tile's scratch: the height range of the ramp parameters
+ NREJ, EEST, PENDING, DRAG_B, DRAG_C, XP, PXM,
+ CX, CV, CW, CK, CWD, CFP, CFPP, BLOCK_STEPS) = range(51)
+N_FIELDS = 51
+N_BANKED = 13
+BANK_B = N_FIELDS  # field F's bank-B copy is F + BANK_B (F < N_BANKED)
+N_LANE_FIELDS = N_FIELDS + N_BANKED
+# After the lanes (N_LANE_FIELDS * LANES), a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
 RANGE_P0, RANGE_P1, RANGE_P2, RANGE_P3, RANGE_FMIN, RANGE_FMAX = range(6)
