@@ -1054,6 +1054,9 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "CONSTANT_CURVATURE": constant_curvature,
         "LINEAR_EVENTS": linear_events,
         "UNIFORM_PARAMETERS": uniform_parameters,
+        # the lane array: fixed-step kernels leave out the adaptive bank B
+        # (a smaller block stays in the L1 cache)
+        "N_LANE_FIELDS": N_LANE_FIELDS if adaptive else N_FIELDS,
         # every template calls `acceleration` by this global name
         "acceleration": acceleration if friction else acceleration_frictionless,
         "DRAG_LINEAR": bool(drag_linear),

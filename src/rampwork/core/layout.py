@@ -36,7 +36,7 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 N_FIELDS = 51
 N_BANKED = 13
 BANK_B = N_FIELDS  # field F's bank-B copy is F + BANK_B (F < N_BANKED)
-N_LANE_FIELDS = N_FIELDS + N_BANKED
+N_LANE_FIELDS = N_FIELDS + N_BANKED  # adaptive kernels; fixed-step ones have no bank B
 # After the lanes (N_LANE_FIELDS * LANES), a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
