@@ -181,9 +181,13 @@ def _checkpoint_lanes(lanes, n_active):
 
 def _copy_stepped_state(lanes, i, to_checkpoint):
     """Copy the fields the vector loop changes to lane i's checkpoint, or
-    back from it (``to_checkpoint`` False)."""
+    back from it (``to_checkpoint`` False): only those this kernel steps
+    (a copy per lane per block is a measurable share of an Euler step)."""
     for field, saved in ((X, CX), (V, CV), (W, CW), (K, CK), (WD, CWD), (FP, CFP),
                          (FPP, CFPP)):
+        if ((field == K and CONSTANT_CURVATURE) or (field == WD and not DRAG)
+                or ((field == FP or field == FPP) and not CARRY_SLOPE)):
+            continue
         if to_checkpoint:
             lanes[saved * LANES + i] = lanes[field * LANES + i]
         else:
