@@ -37,7 +37,8 @@ N_FIELDS = 51
 N_BANKED = 13
 BANK_B = N_FIELDS  # field F's bank-B copy is F + BANK_B (F < N_BANKED)
 N_LANE_FIELDS = N_FIELDS + N_BANKED  # adaptive kernels; fixed-step ones have no bank B
-# After the lanes (N_LANE_FIELDS * LANES), a tile's scratch: the height range of the ramp parameters
+# After the lanes (N_LANE_FIELDS * LANES; N_FIELDS * LANES in fixed-step
+# kernels), a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
 RANGE_P0, RANGE_P1, RANGE_P2, RANGE_P3, RANGE_FMIN, RANGE_FMAX = range(6)
