@@ -908,3 +908,34 @@ def test_two_sided_switches_keep_their_step_size(method, reference):
     assert np.all(ds.steps_rejected.values <= ds.steps.values)
     for name in ("t_end", "x_end", "v_end", "W_friction"):
         np.testing.assert_allclose(ds[name].values, ref[name], rtol=1e-6, atol=1e-6, err_msg=name)
+
+
+def test_attempts_per_block_change_nothing_and_must_be_even():
+    """Attempts alternate between the two banks of the lane state, and a
+    frozen lane's repeated attempts change nothing: 2 or 6 attempts between
+    scans give the bits of the default 4 (t_max 0.4 s ends some trajectories
+    inside a block); an odd count would leave the state in the other bank and
+    is refused before anything is built."""
+    from rampwork import runner
+    from rampwork.core import kernel as K
+
+    scene = rw.Scene(ramp=rw.Ramp.create("circular_dome", radius=1.0, domain=(-0.9, 0.9)),
+                     friction=rw.Friction(0.1), t_max=0.4, integrator=rw.Integrator("dopri5", rtol=1e-7))
+    rng = np.random.default_rng(3)
+    sweep = rw.Sweep.cases(x0=rng.uniform(-0.8, 0.8, 300), v0=rng.uniform(-2.0, 2.0, 300),
+                           mu=rng.uniform(0.0, 0.4, 300))
+    plan = runner.plan_run(scene, sweep)
+    inputs = runner.chunk_inputs(plan, 0, plan.size)
+    spec = scene.ramp.spec
+    results = []
+    for substeps in (4, 2, 6):
+        run_batch, _ = K.build_kernel("dopri5", spec.height, spec.slope_curvature, name=spec.key,
+                                      substeps=substeps)
+        out = np.zeros((K.N_OUTPUTS, plan.size))
+        run_batch(inputs, runner._settings(scene), out, scene.ramp.shared_array(), 37)
+        results.append(out)
+    assert {2, 3, 4} <= set(results[0][K.OUT_STATUS].astype(int))  # exit, lift-off, t_max
+    for out in results[1:]:
+        assert np.array_equal(out, results[0], equal_nan=True)
+    with pytest.raises(ValueError, match="even"):
+        K.build_kernel("dopri5", spec.height, spec.slope_curvature, name=spec.key, substeps=3)
