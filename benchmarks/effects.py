@@ -55,7 +55,7 @@ import numpy as np  # noqa: E402
 import rampwork as rw  # noqa: E402
 from rampwork import runner  # noqa: E402
 from rampwork.core import kernel as K  # noqa: E402
-from rampwork.core.jit import fma  # noqa: E402  (LLVM's fma: the hand kernel rounds like rampwork)
+from rampwork.core.jit import bits_float, float_bits, fma  # noqa: E402  (the hand kernel rounds like rampwork)
 
 FIGURE = pathlib.Path(__file__).resolve().parent / "figures" / "effects.png"
 
@@ -492,8 +492,8 @@ HVB = 16  # vector block: the tail's span is rounded up to it
 # HFLAG: steps of the current block whose event conditions fired;
 # HCX .. HCK: the state at the block's start, from which a flagged lane is replayed
 (HX, HV, HW, HSTEPS, HD, HQ, HLIM, HFLAG, HTRAJ, HMU, HT0, HSM, HXM, HPATH, HNREV, HE0, HELIM,
- HVLIM2, HCASC, HPC, HPS, HGG, HK, HCX, HCV, HCW, HCK) = range(27)
-HNF = 27
+ HVLIM2, HCASC, HPC, HPS, HGG, HK, HCX, HCV, HCW, HCK, HQH, HDS, HAH) = range(30)
+HNF = 30
 #: False: the kernel for the scene.  True (a diagnostic variant, built with
 #: build_hand_general): the same kernel with three of rampwork's general
 #: features added, to see what the gap is made of: the ramp parameters and g
@@ -523,7 +523,7 @@ def _h_rest(fp, mu, g):
     if abs(fp) <= mu:
         return 0.0
     d = -1.0 if fp > 0.0 else 1.0
-    if (-g * (fp + d * mu) / fma(fp, fp, 1.0)) * d <= 0.0:
+    if (-g * ((fp + d * mu) / fma(fp, fp, 1.0))) * d <= 0.0:
         return 0.0
     return d
 
@@ -617,24 +617,43 @@ def _h_load(ln, i, j, inputs, outputs, pr):
     if (x >= pr[PXHI] and d > 0.0) or (x <= pr[PXLO] and d < 0.0):
         _h_finish(ln, i, _ST_EXITED, outputs, pr)
         return False
-    ln[HD * HL + i] = d
-    ln[HQ * HL + i] = d * mu
+    _h_set_mode(ln, i, d, pr)
     return True
 
 
 @_scalar
-def _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h):
+def _h_set_mode(ln, i, d, pr):
+    """Direction d and what the vector loop reads of it: q, h q, d's sign bit
+    and the domain end ahead (so it tests d v > 0 with a bit flip, multiplies
+    once fewer for the work and compares once fewer for the exits)."""
+    ln[HD * HL + i] = d
+    ln[HQ * HL + i] = d * ln[HMU * HL + i]
+    ln[HQH * HL + i] = pr[PDT] * ln[HQ * HL + i]
+    ln[HDS * HL + i] = -0.0 if d < 0.0 else 0.0
+    ln[HAH * HL + i] = pr[PXHI] if d > 0.0 else pr[PXLO]
+
+
+@_scalar
+def _h_flip(y, sign):
+    """y with its sign bit flipped where ``sign`` is -0.0: d y for d = +-1."""
+    return bits_float(float_bits(y) ^ float_bits(sign))
+
+
+@_scalar
+def _h_step(x, v, d, q, qh, ds, ahead, c, s, g, h):
     """One Euler step from (x, v) and whether it is clean (no event condition
     fired): (x1, v1, dw, dk, clean).  The vector loop and the scalar replay
     both call it, so they round alike.  NaN fails every comparison: a
     non-finite step is not clean."""
     fp = fma(c, x, s)
     n = fma(v * v, c, g)
-    a = -n * (fp + q) / fma(fp, fp, 1.0)
+    a = -n * ((fp + q) / fma(fp, fp, 1.0))
     x1 = fma(h, v, x)
     v1 = fma(h, a, v)
-    dw = h * q * n * v
-    clean = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
+    dw = qh * n * v
+    # d v1 > 0, and x1 short of the end ahead (an Euler step moves x in
+    # direction d): d (ahead - x1) > 0
+    clean = (_h_flip(v1, ds) > 0.0) & (_h_flip(ahead - x1, ds) > 0.0)
     dk = 0.0
     if GENERAL:
         clean = clean & (dw >= 0.0)
@@ -643,7 +662,7 @@ def _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h):
 
 
 @_scalar
-def _h_lane(ln, i, c, s, g, x_lo, x_hi, h):
+def _h_lane(ln, i, c, s, g, h):
     """HUNROLL Euler steps on lane i, always taken (plain stores); a step that
     is not clean adds 1 to the lane's flag.  An empty lane (D = 0) is never
     clean; the scan ignores it."""
@@ -652,6 +671,9 @@ def _h_lane(ln, i, c, s, g, x_lo, x_hi, h):
     w = ln[HW * HL + i]
     d = ln[HD * HL + i]
     q = ln[HQ * HL + i]
+    qh = ln[HQH * HL + i]
+    ds = ln[HDS * HL + i]
+    ahead = ln[HAH * HL + i]
     flag = ln[HFLAG * HL + i]
     if GENERAL:
         c = ln[HPC * HL + i]
@@ -659,7 +681,7 @@ def _h_lane(ln, i, c, s, g, x_lo, x_hi, h):
         g = ln[HGG * HL + i]
         kk = ln[HK * HL + i]
     for _ in range(HUNROLL):
-        x, v, dw, dk, clean = _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h)
+        x, v, dw, dk, clean = _h_step(x, v, d, q, qh, ds, ahead, c, s, g, h)
         flag += 0.0 if clean else 1.0
         w += dw
         if GENERAL:
@@ -697,17 +719,20 @@ def _h_replay(ln, i, pr):
         s = ln[HPS * HL + i]
         g = ln[HGG * HL + i]
         kk = ln[HCK * HL + i]
-    x_lo, x_hi, h = pr[PXLO], pr[PXHI], pr[PDT]
+    h = pr[PDT]
     x = ln[HCX * HL + i]
     v = ln[HCV * HL + i]
     w = ln[HCW * HL + i]
     d = ln[HD * HL + i]
     q = ln[HQ * HL + i]
+    qh = ln[HQH * HL + i]
+    ds = ln[HDS * HL + i]
+    ahead = ln[HAH * HL + i]
     steps = ln[HSTEPS * HL + i]
     limit = ln[HLIM * HL + i]
     taken = 0
     while taken < HSUB and steps < limit:
-        x1, v1, dw, dk, clean = _h_step(x, v, d, q, c, s, g, x_lo, x_hi, h)
+        x1, v1, dw, dk, clean = _h_step(x, v, d, q, qh, ds, ahead, c, s, g, h)
         if not clean:
             break
         x = x1
@@ -727,18 +752,18 @@ def _h_replay(ln, i, pr):
 
 
 @_scalar
-def _h_advance(ln, n_active, c, s, g, x_lo, x_hi, h):
+def _h_advance(ln, n_active, c, s, g, h):
     """HSUB steps on lanes 0 .. n_active-1; a full block runs its two halves
     side by side (two independent division chains)."""
     if HCHAINS == 2 and n_active > HL // 2:
         for _ in range(HSUB // HUNROLL):
             for i in range(HL // 2):
-                _h_lane(ln, i, c, s, g, x_lo, x_hi, h)
-                _h_lane(ln, i + HL // 2, c, s, g, x_lo, x_hi, h)
+                _h_lane(ln, i, c, s, g, h)
+                _h_lane(ln, i + HL // 2, c, s, g, h)
     else:
         for _ in range(HSUB // HUNROLL):
             for i in range(n_active):
-                _h_lane(ln, i, c, s, g, x_lo, x_hi, h)
+                _h_lane(ln, i, c, s, g, h)
 
 
 @_scalar
@@ -755,7 +780,7 @@ def _h_resolve(ln, i, outputs, pr):
     ln[HCASC * HL + i] += 1.0
     fp = fma(c, x, s)
     n = fma(v * v, c, g)
-    a = -n * (fp + q) / fma(fp, fp, 1.0)
+    a = -n * ((fp + q) / fma(fp, fp, 1.0))
     x1 = fma(h, v, x)
     v1 = fma(h, a, v)
     if (ln[HCASC * HL + i] > 100.0 or not (math.isfinite(x1) and math.isfinite(v1))
@@ -822,8 +847,7 @@ def _h_resolve(ln, i, outputs, pr):
         return False
     if direction != d:
         ln[HNREV * HL + i] += 1.0
-    ln[HD * HL + i] = direction
-    ln[HQ * HL + i] = direction * ln[HMU * HL + i]
+    _h_set_mode(ln, i, direction, pr)
     return True
 
 
@@ -894,14 +918,14 @@ def _h_tile(start, stop, inputs, outputs, pr):
     ln = np.zeros(HNF * HL)
     for i in range(HL):
         _h_empty(ln, i)
-    c, s, g, x_lo, x_hi, h = pr[PC], pr[PS], pr[PG], pr[PXLO], pr[PXHI], pr[PDT]
+    c, s, g, h = pr[PC], pr[PS], pr[PG], pr[PDT]
     next_j = start
     for i in range(HL):
         next_j = _h_fill(ln, i, next_j, stop, inputs, outputs, pr)
     n_active = HL if next_j < stop else _h_compact(ln)
     while n_active > 0:
         _h_checkpoint(ln, n_active)
-        _h_advance(ln, n_active, c, s, g, x_lo, x_hi, h)
+        _h_advance(ln, n_active, c, s, g, h)
         if _h_scan(ln, outputs, pr, n_active) == 0:
             continue
         if next_j < stop:

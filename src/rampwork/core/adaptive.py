@@ -401,7 +401,7 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
             lanes[EEST * LANES + i] += abs(err_work)
             lanes[T * LANES + i] = t_now + h_end
             refresh_slope(lanes, i, shared)
-            set_mode(lanes, i, lanes[D * LANES + i])
+            set_mode(lanes, i, lanes[D * LANES + i], settings)
             return True
         best_kind = np.int64(EV_TIMEOUT)  # the step reaches t_max with nothing before
     if best_theta > 0.0:

@@ -34,7 +34,7 @@ import numpy as np
 
 from . import status as st
 from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
-from .jit import fma, specialise
+from .jit import bits_float, float_bits, fma, specialise
 from .physics import (acceleration, acceleration_frictionless, departure_direction, drag_rate,
                       normal_term, specific_energy)
 from . import adaptive as adaptive_parts
@@ -58,6 +58,7 @@ FRICTION = True  # False: mu_k = 0 everywhere, no friction branch (see build_ker
 WORK_SIGN_CHECK = True  # False: each step's friction work is >= 0 by construction
 CONSTANT_CURVATURE = False  # f'' is the same all along the ramp: no curvature integral
 LINEAR_EVENTS = False  # x and v are linear in the step size: events in closed form
+MONOTONE_STEP = False  # a step that keeps d v > 0 moves x in direction d (first-order methods)
 UNIFORM_PARAMETERS = False  # g and the ramp parameters are the run's settings, not per lane
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
@@ -100,18 +101,30 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
                 fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform)
 
 
-def _step_and_check(x, v, fp, fpp, q, d, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
-                    x_lo, x_hi):
+def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared,
+                    drag_b, drag_c, x_lo, x_hi):
     """One fixed step from (x, v) and whether it is clean, i.e. no event
     condition fired: ``(x1, v1, dw, dk, dwd, fp1, fpp1, ok)``.  The vector
     loop and the scalar replay both call this, so they round alike.
     ``dw < 0``: a step too long for the mode's signs (see _event_values).
-    NaN makes every comparison false, so a non-finite step is not clean."""
+    NaN makes every comparison false, so a non-finite step is not clean.
+    ``qh`` = h q, ``dsign`` = D's sign bit, ``ahead`` the domain's end
+    ahead (layout's QH, DSIGN, AHEAD)."""
     if not CARRY_SLOPE:
         fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-    x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared,
+    x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared,
                                drag_b, drag_c)
-    ok = (d * v1 > 0.0) & (x1 < x_hi) & (x1 > x_lo)
+    # d v1 > 0, d = +-1: v1 with its sign bit flipped where d < 0 (a logic
+    # operation rather than a multiplication; exact, NaN stays NaN)
+    ok = bits_float(float_bits(v1) ^ float_bits(dsign)) > 0.0
+    if MONOTONE_STEP:
+        # x1 moves in direction d from x, so only the end ahead can be passed:
+        # d (ahead - x1) > 0, the same test as x1 < x_hi (d > 0) or
+        # x1 > x_lo (d < 0), exact (a difference of floats is 0 only
+        # when they are equal), with one comparison instead of two
+        ok = ok & (bits_float(float_bits(ahead - x1) ^ float_bits(dsign)) > 0.0)
+    else:
+        ok = ok & (x1 < x_hi) & (x1 > x_lo)
     if WORK_SIGN_CHECK:
         ok = ok & (dw >= 0.0)
     if DRAG:
@@ -137,6 +150,9 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
     v = lanes[V * LANES + i]
     d = lanes[D * LANES + i]
     q = lanes[Q * LANES + i]
+    qh = lanes[QH * LANES + i]
+    dsign = lanes[DSIGN * LANES + i]
+    ahead = lanes[AHEAD * LANES + i]
     sn = lanes[SN * LANES + i]
     g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform)
     work = lanes[W * LANES + i]
@@ -151,7 +167,8 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
     # each field per visit instead of per step
     for _ in range(UNROLL):
         x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
-            x, v, fp, fpp, q, d, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c, x_lo, x_hi)
+            x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
+            x_lo, x_hi)
         flag += 0.0 if ok else 1.0
         work += dw
         if not CONSTANT_CURVATURE:
@@ -211,6 +228,9 @@ def _replay_lane(lanes, i, settings, shared, n_steps, restore):
     h = settings[SET_DT]
     d = lanes[D * LANES + i]
     q = lanes[Q * LANES + i]
+    qh = lanes[QH * LANES + i]
+    dsign = lanes[DSIGN * LANES + i]
+    ahead = lanes[AHEAD * LANES + i]
     sn = lanes[SN * LANES + i]
     drag_b = lanes[DRAG_B * LANES + i]
     drag_c = lanes[DRAG_C * LANES + i]
@@ -225,7 +245,8 @@ def _replay_lane(lanes, i, settings, shared, n_steps, restore):
         if not steps < limit:
             break
         x1, v1, dw, dk, dwd, fp1, fpp1, ok = step_and_check(
-            x, v, fp, fpp, q, d, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c, x_lo, x_hi)
+            x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
+            x_lo, x_hi)
         if not ok:
             break
         x = x1
@@ -287,9 +308,10 @@ def _trial_step(lanes, i, h, shared):
     """One step of size h from lane i's state, not committed:
     ``(x, v, friction_work, curvature_integral, drag_work)`` as the stepper
     returns them."""
+    q = lanes[Q * LANES + i]
     return step(
         lanes[X * LANES + i], lanes[V * LANES + i], lanes[FP * LANES + i], lanes[FPP * LANES + i],
-        lanes[Q * LANES + i], lanes[D * LANES + i], h, lanes[G * LANES + i],
+        q, h * q, lanes[D * LANES + i], h, lanes[G * LANES + i],
         lanes[P0 * LANES + i], lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i],
         shared, lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
 
@@ -475,10 +497,14 @@ def _make_empty(lanes, i):
     lanes[PENDING * LANES + i] = 0.0
 
 
-def _set_mode(lanes, i, direction):
+def _set_mode(lanes, i, direction, settings):
     """Direction of motion and signed friction coefficient of the coming mode."""
     lanes[D * LANES + i] = direction
     lanes[Q * LANES + i] = direction * lanes[MUK * LANES + i] * lanes[SN * LANES + i]
+    if not ADAPTIVE:  # the vector loop's forms of D and Q (see layout)
+        lanes[DSIGN * LANES + i] = -0.0 if direction < 0.0 else 0.0
+        lanes[QH * LANES + i] = settings[SET_DT] * lanes[Q * LANES + i]
+        lanes[AHEAD * LANES + i] = settings[SET_XHI] if direction > 0.0 else settings[SET_XLO]
     if ADAPTIVE:  # the first stage of the coming step (f', f'' are current)
         n = normal_term(lanes[V * LANES + i], lanes[FPP * LANES + i], lanes[G * LANES + i])
         lanes[A1 * LANES + i] = acceleration(n, lanes[FP * LANES + i], lanes[Q * LANES + i])
@@ -573,7 +599,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     if (x >= x_hi and direction > 0.0) or (x <= x_lo and direction < 0.0):
         finish_lane(lanes, i, st.EXITED, np.nan, outputs, shared)
         return False
-    set_mode(lanes, i, direction)
+    set_mode(lanes, i, direction, settings)
     if ADAPTIVE:
         start_adaptive(lanes, i, settings, shared)
     return True
@@ -743,7 +769,7 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
         # two-sided: the sign inside |n| flips and the motion goes on
         lanes[SN * LANES + i] = -lanes[SN * LANES + i]
         lanes[FRESH * LANES + i] = 1.0  # n starts from 0 (adaptive.py's contact control)
-        set_mode(lanes, i, lanes[D * LANES + i])
+        set_mode(lanes, i, lanes[D * LANES + i], settings)
         return True
     # reversal: v reached 0 and the rest rule decides
     lanes[V * LANES + i] = 0.0
@@ -755,7 +781,7 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
         return False
     if direction != lanes[D * LANES + i]:
         lanes[NREV * LANES + i] += 1.0
-    set_mode(lanes, i, direction)
+    set_mode(lanes, i, direction, settings)
     return True
 
 
@@ -1020,8 +1046,10 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
              + ("_dragc" if drag_quadratic else "") + ("_paper" if paper_criterion else "")
              + ("" if friction else "_nofriction"))
     # known in advance from the method: first-order steps use the start's
-    # n and v, so their friction work h q n v = h mu_k |n| |v| is >= 0; an
-    # explicit Euler step (without drag) is linear in h: events in closed form
+    # n and v, so their friction work h q n v = h mu_k |n| |v| is >= 0, and
+    # a step that ends with d v > 0 moved x in direction d (explicit Euler:
+    # x + h v; semi-implicit: x + h v_new); an explicit Euler step (without
+    # drag) is linear in h: events in closed form
     first_order = method in ("euler", "semi_implicit_euler")
     constant_curvature = bool(constant_curvature)
     linear_events = method == "euler" and not (drag_linear or drag_quadratic)
@@ -1057,6 +1085,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         "WORK_SIGN_CHECK": not first_order,
         "CONSTANT_CURVATURE": constant_curvature,
         "LINEAR_EVENTS": linear_events,
+        "MONOTONE_STEP": first_order,
         "UNIFORM_PARAMETERS": uniform_parameters,
         # the lane array: fixed-step kernels leave out the adaptive bank B
         # (a smaller block stays in the L1 cache)

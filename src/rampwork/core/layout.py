@@ -23,7 +23,14 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # regardless); CX .. CFPP hold the state at the block's start, from which a
 # flagged lane is replayed in scalar up to its event.  Adaptive methods only:
 # BLOCK_STEPS, the step count at the block's start (a lane that stepped since
-# has made progress: its event cascade count restarts).
+# has made progress: its event cascade count restarts).  Fixed-step methods
+# only, set with the mode: DSIGN, the sign bit of D as a float (-0.0 or 0.0),
+# so that the vector loop tests d v > 0 with a bit flip instead of a
+# multiplication; QH, q times the step (the first product of the friction
+# work's h q n v); AHEAD, the end of the domain ahead (x_hi for d > 0,
+# x_lo for d < 0), the only one a first-order step can cross.  These take
+# work off the multiply and compare pipes, the vector loop's bottleneck for
+# the first-order methods.
 # The first N_BANKED fields are the state an adaptive attempt may or may not
 # commit.  They have a second bank, fields BANK_B .. BANK_B + N_BANKED - 1:
 # attempts alternate reading one bank and writing the other (see
@@ -32,8 +39,8 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
  Q, D, SN, S, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
  STEPS, FLAG, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
  NREJ, EEST, PENDING, DRAG_B, DRAG_C, XP, PXM,
- CX, CV, CW, CK, CWD, CFP, CFPP, BLOCK_STEPS) = range(51)
-N_FIELDS = 51
+ CX, CV, CW, CK, CWD, CFP, CFPP, BLOCK_STEPS, DSIGN, QH, AHEAD) = range(54)
+N_FIELDS = 54
 N_BANKED = 13
 BANK_B = N_FIELDS  # field F's bank-B copy is F + BANK_B (F < N_BANKED)
 N_LANE_FIELDS = N_FIELDS + N_BANKED  # adaptive kernels; fixed-step ones have no bank B

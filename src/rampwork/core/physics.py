@@ -21,8 +21,11 @@ def normal_term(v, fpp, g):
 def acceleration(n, fp, q):
     """dv/dt = -(f' n + d mu_k |n|) / (1 + f'^2), with |n| = s_n n and q = d mu_k s_n.
 
-    For n > 0 this is the paper's eq. (10)."""
-    return -n * (fp + q) / fma(fp, fp, 1.0)
+    For n > 0 this is the paper's eq. (10).  The division involves f' alone,
+    so it is written apart from n: in a step chain (a replayed lane, the
+    stages of a step) x gives f' early and the division overlaps the work
+    on v, which gives n; the velocity chain then holds no division."""
+    return -n * ((fp + q) / fma(fp, fp, 1.0))
 
 
 @jit
@@ -47,7 +50,7 @@ def acceleration_frictionless(n, fp, q):
     """:func:`acceleration` with mu_k = 0 (``q`` unused): what kernels of
     scenes without kinetic friction bind as ``acceleration``.  The same
     result as ``acceleration(n, fp, 0.0)`` except perhaps the sign of a zero."""
-    return -n * fp / fma(fp, fp, 1.0)
+    return -n * (fp / fma(fp, fp, 1.0))
 
 
 @jit
