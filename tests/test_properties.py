@@ -184,7 +184,10 @@ def check_random_batch(family, method, data):
     check_traces(scene, sweep, ds, method)
 
 
-@pytest.mark.parametrize("method", list(INTEGRATORS))
+# dop853 on every family runs in the slow suite only (test_invariants_on_random_ramps_many,
+# with more examples): each family is one more dop853 kernel to compile, about a
+# minute of the default run apiece, and the default run keeps dop853 elsewhere
+@pytest.mark.parametrize("method", [method for method in INTEGRATORS if method != "dop853"])
 @pytest.mark.parametrize("family", list(FAMILIES))
 @PROPERTY_SETTINGS
 @given(data=st.data())
