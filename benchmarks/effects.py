@@ -55,7 +55,7 @@ import numpy as np  # noqa: E402
 import rampwork as rw  # noqa: E402
 from rampwork import runner  # noqa: E402
 from rampwork.core import kernel as K  # noqa: E402
-from rampwork.core.jit import bits_float, float_bits, fma  # noqa: E402  (the hand kernel rounds like rampwork)
+from rampwork.core.jit import flip_sign, fma  # noqa: E402  (the hand kernel rounds like rampwork)
 
 FIGURE = pathlib.Path(__file__).resolve().parent / "figures" / "effects.png"
 
@@ -634,12 +634,6 @@ def _h_set_mode(ln, i, d, pr):
 
 
 @_scalar
-def _h_flip(y, sign):
-    """y with its sign bit flipped where ``sign`` is -0.0: d y for d = +-1."""
-    return bits_float(float_bits(y) ^ float_bits(sign))
-
-
-@_scalar
 def _h_step(x, v, d, q, qh, ds, ahead, c, s, g, h):
     """One Euler step from (x, v) and whether it is clean (no event condition
     fired): (x1, v1, dw, dk, clean).  The vector loop and the scalar replay
@@ -653,7 +647,7 @@ def _h_step(x, v, d, q, qh, ds, ahead, c, s, g, h):
     dw = qh * n * v
     # d v1 > 0, and x1 short of the end ahead (an Euler step moves x in
     # direction d): d (ahead - x1) > 0
-    clean = (_h_flip(v1, ds) > 0.0) & (_h_flip(ahead - x1, ds) > 0.0)
+    clean = (flip_sign(v1, ds) > 0.0) & (flip_sign(ahead - x1, ds) > 0.0)
     dk = 0.0
     if GENERAL:
         clean = clean & (dw >= 0.0)

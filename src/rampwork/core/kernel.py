@@ -34,7 +34,7 @@ import numpy as np
 
 from . import status as st
 from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
-from .jit import bits_float, float_bits, fma, specialise
+from .jit import flip_sign, fma, specialise
 from .physics import (acceleration, acceleration_frictionless, departure_direction, drag_rate,
                       normal_term, specific_energy)
 from . import adaptive as adaptive_parts
@@ -114,15 +114,13 @@ def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2,
         fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
     x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared,
                                drag_b, drag_c)
-    # d v1 > 0, d = +-1: v1 with its sign bit flipped where d < 0 (a logic
-    # operation rather than a multiplication; exact, NaN stays NaN)
-    ok = bits_float(float_bits(v1) ^ float_bits(dsign)) > 0.0
+    ok = flip_sign(v1, dsign) > 0.0  # d v1 > 0
     if MONOTONE_STEP:
         # x1 moves in direction d from x, so only the end ahead can be passed:
         # d (ahead - x1) > 0, the same test as x1 < x_hi (d > 0) or
         # x1 > x_lo (d < 0), exact (a difference of floats is 0 only
         # when they are equal), with one comparison instead of two
-        ok = ok & (bits_float(float_bits(ahead - x1) ^ float_bits(dsign)) > 0.0)
+        ok = ok & (flip_sign(ahead - x1, dsign) > 0.0)
     else:
         ok = ok & (x1 < x_hi) & (x1 > x_lo)
     if WORK_SIGN_CHECK:
