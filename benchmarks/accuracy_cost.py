@@ -282,10 +282,10 @@ def kernel_source(rw, scene, sweep) -> str:
     """'compiled' or 'disk cache' for the run_batch dispatcher (rampwork
     internals; 'unknown' where they cannot be read)."""
     try:
-        from rampwork import runner
+        from rampwork import kernels, runner
 
         plan = runner.plan_run(scene, sweep)
-        stats = runner._KERNELS[plan.kernel_key][0].stats
+        stats = kernels._KERNELS[plan.variant][0].stats
         hits, misses = sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
         return "disk cache" if hits and not misses else ("compiled" if misses else "unknown")
     except Exception:  # noqa: BLE001 - informative only

@@ -33,7 +33,7 @@ full run to benchmarks/figures/effects.png.
 from __future__ import annotations
 
 import argparse
-import inspect
+import dataclasses
 import json
 import math
 import os
@@ -53,8 +53,9 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rampwork as rw  # noqa: E402
-from rampwork import runner  # noqa: E402
+from rampwork import kernels, runner  # noqa: E402
 from rampwork.core import kernel as K  # noqa: E402
+from rampwork.core.variant import KernelVariant  # noqa: E402
 from rampwork.core.jit import flip_sign, fma  # noqa: E402  (the hand kernel rounds like rampwork)
 
 FIGURE = pathlib.Path(__file__).resolve().parent / "figures" / "effects.png"
@@ -172,7 +173,7 @@ def straight_sweep(n):
 # ------------------------------------------------------------------------------
 # kernels and timing
 # ------------------------------------------------------------------------------
-BUILD_PARAMETERS = set(inspect.signature(K.build_kernel).parameters)
+BUILD_PARAMETERS = {field.name for field in dataclasses.fields(KernelVariant)} - {"family", "method"}
 HAS_FRICTION_FLAG = "friction" in BUILD_PARAMETERS
 HAS_DRAG = hasattr(rw, "Drag")
 
@@ -186,8 +187,8 @@ def build(scene, **flags):
         raise TypeError(f"build_kernel has no {sorted(unknown)}")
     spec = scene.ramp.spec
     started = time.perf_counter()
-    run_batch, _ = K.build_kernel(scene.integrator.method, spec.height, spec.slope_curvature,
-                                  name=spec.key, **flags)
+    variant = KernelVariant(spec.key, scene.integrator.method, **flags)
+    run_batch, _ = K.build_kernel(variant, spec.height, spec.slope_curvature)
     return run_batch, warm_up(run_batch, scene, started)
 
 
@@ -212,25 +213,14 @@ def runner_kernel(scene, sweep):
     """The kernel the runner picks for a scene (get_kernel), compiled."""
     plan = runner.plan_run(scene, sweep)
     started = time.perf_counter()
-    (run_batch, _), _ = runner.get_kernel(plan)
+    (run_batch, _), _ = kernels.get_kernel(plan.variant, plan)
     return plan, run_batch, warm_up(run_batch, scene, started)
 
 
 def runner_flags(plan):
-    """build_kernel flags equal to what runner.get_kernel passes for a plan."""
-    flags = dict(one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
-                 carry_slope=plan.carry_slope, paper_criterion=plan.paper_criterion)
-    if HAS_FRICTION_FLAG:
-        flags["friction"] = plan.friction
-    for name in ("drag_linear", "drag_quadratic"):
-        if name in BUILD_PARAMETERS:
-            flags[name] = getattr(plan, name)
-    # what is known in advance about the ramp and the sweep
-    if "constant_curvature" in BUILD_PARAMETERS:
-        flags["constant_curvature"] = plan.scene.ramp.family in runner.CONSTANT_CURVATURE_FAMILIES
-    if "uniform_parameters" in BUILD_PARAMETERS:
-        flags["uniform_parameters"] = plan.uniform_parameters
-    return flags
+    """Build flags equal to the runner's pick for a plan: its variant's choices."""
+    return {field.name: getattr(plan.variant, field.name)
+            for field in dataclasses.fields(plan.variant) if field.type == "bool"}
 
 
 def variant(label, run_batch, scene, inputs, compile_info, note=""):
@@ -317,7 +307,7 @@ def effect_rows(args, log):
         sweep = quadratic_sweep(args.n)
         plan, base_batch, base_compile = runner_kernel(scene, sweep)
         base_flags = runner_flags(plan)
-        assert not plan.check_contact and not plan.carry_slope, "the runner's pick changed"
+        assert not plan.variant.check_contact and not plan.variant.carry_slope, "the runner's pick changed"
         inputs = runner.chunk_inputs(plan, 0, plan.size)
         base = variant("runner's pick", base_batch, scene, inputs, base_compile)
         log(f"[{method}] quadratic sweep {plan.size:,} trajectories; runner's kernel: "
@@ -379,7 +369,7 @@ def effect_rows(args, log):
                 pruned.append(variant(f"friction={friction}", run_batch, free_scene, free_inputs, info))
             rows.append(effect_row(method, f"friction branch at mu = 0 (t_max {FRICTIONLESS_T_MAX:g} s)",
                                    pruned[0], pruned[1], args, log, expect_identical=True,
-                                   runner_pick="off" if not free_plan.friction else "on"))
+                                   runner_pick="off" if not free_plan.variant.friction else "on"))
         # one-sided vs two-sided contact on a dome
         d_sweep = dome_sweep(args.n_dome)
         d_variants = []
@@ -437,7 +427,7 @@ def closed_form_table(args, log):
     for method in (None, "rk4", "euler"):
         scene = straight_scene(method)
         plan, run_batch, info = runner_kernel(scene, sweep)
-        assert plan.closed_form == (method is None)
+        assert plan.variant.closed_form == (method is None)
         label = "closed form" if method is None else f"{method} dt={DT:g}"
         log(f"  {label}: {info['seconds']:.1f} s ({info['source']})")
         variants.append(variant(label, run_batch, scene, runner.chunk_inputs(plan, 0, plan.size), info))
@@ -1082,7 +1072,7 @@ PROBE = textwrap.dedent("""
     }
     scene = scenes[name]
     ds = rw.simulate(scene)
-    run_batch = next(iter(runner._KERNELS.values()))[0]
+    run_batch = next(iter(kernels._KERNELS.values()))[0]
     again = rw.simulate(scene)
     print(json.dumps({"compile_time_s": ds.attrs["compile_time_s"], "import_s": imported,
                       "effects": ds.attrs["kernel_effects"],

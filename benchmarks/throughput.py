@@ -434,10 +434,10 @@ def kernel_cache_info(rw, scene, sweep):
     """Numba's disk-cache hits/misses of the run_batch dispatcher (rampwork
     internals; None where they cannot be read)."""
     try:
-        from rampwork import runner
+        from rampwork import kernels, runner
 
         plan = runner.plan_run(scene, sweep)
-        run_batch = runner._KERNELS[plan.kernel_key][0]
+        run_batch = kernels._KERNELS[plan.variant][0]
         stats = run_batch.stats
         hits, misses = sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
         source = "disk cache" if hits and not misses else ("compiled" if misses else "unknown")

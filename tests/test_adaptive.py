@@ -918,6 +918,7 @@ def test_attempts_per_block_change_nothing_and_must_be_even():
     is refused before anything is built."""
     from rampwork import runner
     from rampwork.core import kernel as K
+    from rampwork.core.variant import KernelVariant
 
     scene = rw.Scene(ramp=rw.Ramp.create("circular_dome", radius=1.0, domain=(-0.9, 0.9)),
                      friction=rw.Friction(0.1), t_max=0.4, integrator=rw.Integrator("dopri5", rtol=1e-7))
@@ -929,8 +930,8 @@ def test_attempts_per_block_change_nothing_and_must_be_even():
     spec = scene.ramp.spec
     results = []
     for substeps in (4, 2, 6):
-        run_batch, _ = K.build_kernel("dopri5", spec.height, spec.slope_curvature, name=spec.key,
-                                      substeps=substeps)
+        run_batch, _ = K.build_kernel(KernelVariant(spec.key, "dopri5", substeps=substeps),
+                                      spec.height, spec.slope_curvature)
         out = np.zeros((K.N_OUTPUTS, plan.size))
         run_batch(inputs, runner._settings(scene), out, scene.ramp.shared_array(), 37)
         results.append(out)
@@ -938,4 +939,4 @@ def test_attempts_per_block_change_nothing_and_must_be_even():
     for out in results[1:]:
         assert np.array_equal(out, results[0], equal_nan=True)
     with pytest.raises(ValueError, match="even"):
-        K.build_kernel("dopri5", spec.height, spec.slope_curvature, name=spec.key, substeps=3)
+        KernelVariant(spec.key, "dopri5", substeps=3)

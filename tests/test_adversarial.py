@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from rampwork import runner, scenefile
+from rampwork import kernels, runner, scenefile
 from rampwork.cli import main
 
 BASE = """\
@@ -160,7 +160,7 @@ def no_runs(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("nothing may be compiled or run for a refused input")
 
-    monkeypatch.setattr(runner, "get_kernel", refuse)
+    monkeypatch.setattr(kernels, "get_kernel", refuse)
     monkeypatch.setattr(runner, "simulate", refuse)
 
 

@@ -191,12 +191,12 @@ def test_config_error_survives_pickling():
 
 
 def test_record_index_beyond_the_sweep_is_refused_before_the_run(monkeypatch):
-    from rampwork import runner
+    from rampwork import kernels
 
-    def no_kernel(plan):
+    def no_kernel(*args):
         raise AssertionError("a kernel was built for a refused run")
 
-    monkeypatch.setattr(runner, "get_kernel", no_kernel)
+    monkeypatch.setattr(kernels, "get_kernel", no_kernel)
     scene = rw.Scene(ramp=straight(), x0=0.5, record=rw.Record(indices=(0, 2)))
     with pytest.raises(ConfigError, match=r"record.indices\[1\].*beyond the sweep's 2 trajectories"):
         rw.simulate(scene, rw.Sweep.grid(v0=[0.0, 1.0]))

@@ -25,6 +25,7 @@ from rampwork import runner
 from rampwork.cli import main
 from rampwork.core import kernel as K
 from rampwork.core.status import TIMEOUT
+from rampwork.core.variant import KernelVariant
 from rampwork.errors import ConfigError
 from rampwork.scenefile import dump_scene, parse_scene
 
@@ -191,10 +192,11 @@ def _raw(scene, sweep, **drag_flags):
     """The kernel's raw outputs for a plan, from a kernel built with drag_flags."""
     plan = runner.plan_run(scene, sweep)
     spec = scene.ramp.spec
-    run_batch, _ = K.build_kernel(scene.integrator.method, spec.height, spec.slope_curvature,
-                                  name=spec.key, one_sided=scene.contact == "one_sided",
-                                  check_contact=plan.check_contact, carry_slope=plan.carry_slope,
-                                  **drag_flags)
+    variant = KernelVariant(spec.key, scene.integrator.method,
+                            one_sided=scene.contact == "one_sided",
+                            check_contact=plan.variant.check_contact,
+                            carry_slope=plan.variant.carry_slope, **drag_flags)
+    run_batch, _ = K.build_kernel(variant, spec.height, spec.slope_curvature)
     out = np.zeros((K.N_OUTPUTS, plan.size))
     run_batch(runner.chunk_inputs(plan, 0, plan.size), runner._settings(scene), out,
               scene.ramp.shared_array(), 64)
@@ -241,7 +243,7 @@ def test_zero_drag_adaptive_agrees_within_tolerance(method):
 def test_scene_without_drag_has_no_drag_output():
     scene = bowl_scene(rw.Integrator("rk4", dt=1e-3)).replace(drag=rw.Drag())
     plan = runner.plan_run(scene, NO_DRAG_SWEEP)
-    assert not plan.drag_linear and not plan.drag_quadratic
+    assert not plan.variant.drag_linear and not plan.variant.drag_quadratic
     ds = rw.simulate(scene, NO_DRAG_SWEEP, threads=1)
     assert "W_drag" not in ds and "drag_linear" not in ds.attrs
     assert "[drag]" not in ds.attrs["rampwork_scene"]
@@ -256,13 +258,13 @@ def test_flags_follow_the_run():
     """Only the terms some trajectory has are compiled in."""
     scene = bowl_scene(rw.Integrator("rk4"))
     plan = runner.plan_run(scene.replace(drag=rw.Drag(linear=0.5)))
-    assert plan.drag_linear and not plan.drag_quadratic
+    assert plan.variant.drag_linear and not plan.variant.drag_quadratic
     plan = runner.plan_run(scene.replace(drag=rw.Drag()),
                            rw.Sweep.grid(drag_quadratic=[0.0, 0.2]))
-    assert plan.drag_quadratic and not plan.drag_linear
+    assert plan.variant.drag_quadratic and not plan.variant.drag_linear
     plan = runner.plan_run(scene.replace(drag=rw.Drag(0.0, 0.3)),
                            rw.Sweep.grid(drag_quadratic=[0.0]))
-    assert not plan.drag
+    assert not plan.variant.drag
 
 
 # ----------------------------------------------------------------------------

@@ -19,6 +19,7 @@ import rampwork as rw
 from rampwork import runner
 from rampwork.core import kernel as K
 from rampwork.core.status import EXITED, LIFTED_OFF, STUCK, TIMEOUT
+from rampwork.core.variant import KernelVariant
 from rampwork.errors import ConfigError
 
 G = 9.81
@@ -237,8 +238,9 @@ def run_kernel(plan, **flags):
     the raw output rows (K.N_OUTPUTS, n)."""
     scene = plan.scene
     spec = scene.ramp.spec
-    run_batch, _ = K.build_kernel(scene.integrator.method, spec.height, spec.slope_curvature,
-                                  name=spec.key, carry_slope=plan.carry_slope, **flags)
+    variant = KernelVariant(spec.key, scene.integrator.method,
+                            carry_slope=plan.variant.carry_slope, **flags)
+    run_batch, _ = K.build_kernel(variant, spec.height, spec.slope_curvature)
     out = np.zeros((K.N_OUTPUTS, plan.size))
     run_batch(runner.chunk_inputs(plan, 0, plan.size), runner._settings(scene), out,
               scene.ramp.shared_array(), 64)
@@ -254,7 +256,7 @@ def test_no_lift_off_check_on_convex_ramps_changes_nothing(method):
                      friction=rw.Friction(0.15, 0.25), integrator=integrator, t_max=20.0)
     sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-2.0, 0.0, 1.0])
     plan = runner.plan_run(scene, sweep)
-    assert not plan.check_contact
+    assert not plan.variant.check_contact
     results = [run_kernel(plan, check_contact=check) for check in (False, True)]
     assert np.array_equal(results[0], results[1], equal_nan=True)
     assert set(results[0][K.OUT_STATUS].astype(int)) >= {STUCK}
@@ -279,12 +281,12 @@ def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
                          t_max=20.0)
         sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -0.5, 0.0, 1.0, 4.0])
         plan = runner.plan_run(scene, sweep)
-        assert not plan.friction
+        assert not plan.variant.friction
         ds = rw.simulate(scene, sweep)
         assert "no friction" in ds.attrs["kernel_effects"]
         assert np.all(ds.W_friction.values == 0.0)
         results = [run_kernel(plan, one_sided=contact == "one_sided",
-                              check_contact=plan.check_contact, friction=friction)
+                              check_contact=plan.variant.check_contact, friction=friction)
                    for friction in (False, True)]
         assert np.array_equal(results[0], results[1], equal_nan=True), contact
         statuses = set(results[0][K.OUT_STATUS].astype(int))
@@ -305,9 +307,9 @@ def test_uniform_parameters_in_registers_change_nothing(method):
                      friction=rw.Friction(0.1, 0.3), integrator=integrator, t_max=20.0)
     sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -0.5, 0.0, 1.0, 4.0])
     plan = runner.plan_run(scene, sweep)
-    assert plan.uniform_parameters
-    assert not runner.plan_run(scene, rw.Sweep.grid(x0=[0.1], g=[9.81, 3.7])).uniform_parameters
-    results = [run_kernel(plan, check_contact=plan.check_contact, uniform_parameters=uniform)
+    assert plan.variant.uniform_parameters
+    assert not runner.plan_run(scene, rw.Sweep.grid(x0=[0.1], g=[9.81, 3.7])).variant.uniform_parameters
+    results = [run_kernel(plan, check_contact=plan.variant.check_contact, uniform_parameters=uniform)
                for uniform in (False, True)]
     assert np.array_equal(results[0], results[1], equal_nan=True)
     assert {STUCK, EXITED, LIFTED_OFF} <= set(results[0][K.OUT_STATUS].astype(int))
@@ -329,7 +331,7 @@ def test_constant_curvature_needs_no_curvature_integral(method):
                      friction=rw.Friction(0.15, 0.25), integrator=integrator, t_max=20.0)
     sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -1.0, 0.0, 1.0, 4.0])
     plan = runner.plan_run(scene, sweep)
-    general, constant = (run_kernel(plan, check_contact=plan.check_contact,
+    general, constant = (run_kernel(plan, check_contact=plan.variant.check_contact,
                                     constant_curvature=flag) for flag in (False, True))
     assert np.all(constant[K.OUT_CONVEXITY] == curvature)
     moved = general[K.OUT_PATH] > 0.0
@@ -346,7 +348,7 @@ def test_effects_in_words_and_refused_combinations():
     assert "kinetic friction" in words and "air drag (quadratic)" in words
     assert "one-sided contact, no lift-off check (f'' >= 0)" in words
     # drag makes a straight ramp stepped
-    assert not runner.plan_run(rw.Scene(ramp=straight(0.1), x0=0.0, drag=rw.Drag(linear=0.5))).closed_form
+    assert not runner.plan_run(rw.Scene(ramp=straight(0.1), x0=0.0, drag=rw.Drag(linear=0.5))).variant.closed_form
     # eq. (26) is the paper's, for friction without drag
     with pytest.raises(ConfigError, match="diagnostics.*drag"):
         rw.simulate(bowl.replace(drag=rw.Drag(linear=0.5), diagnostics=PAPER))
@@ -357,11 +359,11 @@ def test_effects_in_words_and_refused_combinations():
 # ------------------------------------------------------------------------------
 _CACHE_PROBE = textwrap.dedent("""
     import json, rampwork as rw
-    from rampwork import runner
+    from rampwork import kernels
     scene = rw.Scene(ramp=rw.Ramp.create("straight", slope=0.3, domain=(-1.0, 1.0)), x0=0.0, v0=1.0,
                      friction=rw.Friction(0.2))
     ds = rw.simulate(scene)
-    run_batch = next(iter(runner._KERNELS.values()))[0]
+    run_batch = next(iter(kernels._KERNELS.values()))[0]
     print(json.dumps({"compile": ds.attrs["compile_time_s"], "hits": sum(run_batch.stats.cache_hits.values()),
                       "misses": sum(run_batch.stats.cache_misses.values())}))
 """)

@@ -34,6 +34,7 @@ import rampwork as rw
 from rampwork import runner
 from rampwork.core import kernel as K
 from rampwork.core.status import DIVERGED, EXITED, LIFTED_OFF, STUCK, TIMEOUT
+from rampwork.core.variant import KernelVariant
 
 G = 9.81
 BATCH = 16
@@ -230,7 +231,7 @@ def test_convex_ramps_never_lift_off(family, convex, data):
                       case["curvature"]) for i, case in enumerate(cases)]
     scene, sweep, ds = batch_run(family, (cases, heights), INTEGRATORS["rk4"])
     plan = runner.plan_run(scene, sweep)
-    assert plan.check_contact == (family == "quadratic" and min(sweep.values("curvature")) < 0)
+    assert plan.variant.check_contact == (family == "quadratic" and min(sweep.values("curvature")) < 0)
     curvature = sweep.values("curvature") if family == "quadratic" else np.ones(BATCH)
     lifted = ds.status.values == LIFTED_OFF
     assert not lifted[curvature >= 0].any()
@@ -274,8 +275,9 @@ def test_bit_identical_whatever_the_lanes_per_block(method, batch):
     spec = scene.ramp.spec
     outputs = []
     for lanes, tile in ((64, 4096), (16, 1), (16, 7)):
-        run_batch, _ = K.build_kernel(method, spec.height, spec.slope_curvature, name=spec.key,
-                                      check_contact=plan.check_contact, carry_slope=True, lanes=lanes)
+        variant = KernelVariant(spec.key, method, check_contact=plan.variant.check_contact,
+                                carry_slope=True, lanes=lanes)
+        run_batch, _ = K.build_kernel(variant, spec.height, spec.slope_curvature)
         out = np.zeros((K.N_OUTPUTS, plan.size))
         run_batch(inputs, settings_, out, scene.ramp.shared_array(), tile)
         outputs.append(out)

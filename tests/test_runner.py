@@ -81,6 +81,7 @@ def test_bitwise_identical_whatever_the_block_and_tile_size():
     block: their replay stops at the step limit)."""
     from rampwork import runner
     from rampwork.core import kernel as K
+    from rampwork.core.variant import KernelVariant
 
     scene = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=1.0, y_centre=1.0, domain=(-0.9, 0.9)),
                      friction=rw.Friction(0.05, 0.15), x0=0.0, t_max=15.0)
@@ -92,8 +93,9 @@ def test_bitwise_identical_whatever_the_block_and_tile_size():
     results = []
     for lanes, tile, knobs in ((64, 4096, {}), (64, 37, {}), (16, 1, {}), (16, 250, {}),
                                (64, 37, dict(substeps=6, unroll=2))):
-        run_batch, _ = K.build_kernel("rk4", spec.height, spec.slope_curvature, name=spec.key,
-                                      check_contact=False, carry_slope=True, lanes=lanes, **knobs)
+        variant = KernelVariant(spec.key, "rk4", check_contact=False, carry_slope=True,
+                                lanes=lanes, **knobs)
+        run_batch, _ = K.build_kernel(variant, spec.height, spec.slope_curvature)
         out = np.zeros((K.N_OUTPUTS, plan.size))
         run_batch(inputs, settings, out, scene.ramp.shared_array(), tile)
         results.append(out)
@@ -169,3 +171,47 @@ def test_reduction_follows_the_dataset_definitions(drag):
     else:
         assert "W_drag" not in out
     assert "x_lift_off_paper" not in out  # not asked for: not written anywhere
+
+
+def test_reduce_rows_takes_the_outputs_in_the_schema_order():
+    """The runner passes the schema's variables to core.reduce.reduce_rows in
+    the schema's order: its parameters after the inputs must be those names."""
+    import inspect
+
+    from rampwork.core import reduce
+
+    parameters = list(inspect.signature(reduce.reduce_rows).parameters)
+    assert parameters[:5] == ["raw", "x0", "mu_k", "g", "mass"]
+    assert parameters[5:] == [name.lower() for name in schema.OUTPUTS]
+
+
+def test_kernel_variant_derives_its_facts_and_refuses_bad_knobs():
+    from rampwork.core.variant import CLOSED_FORM, KernelVariant
+
+    euler = KernelVariant("quadratic", "euler")
+    assert euler.first_order and euler.linear_events and not euler.adaptive
+    assert not euler.replace(drag_linear=True).linear_events  # drag: not linear in h
+    rk4 = KernelVariant("quadratic", "rk4", carry_slope=False)
+    assert not rk4.first_order and not rk4.linear_events and not rk4.carry_slope
+    assert rk4.constants()["WORK_SIGN_CHECK"] and not rk4.constants()["MONOTONE_STEP"]
+    dopri5 = KernelVariant("quadratic", "dopri5", carry_slope=False)
+    assert dopri5.carry_slope and dopri5.substeps % 2 == 0  # adaptive pairs carry f', f''
+    # one name per variant, and equal variants are one table key
+    variants = {KernelVariant("sine", method, one_sided=side, drag_quadratic=drag)
+                for method in ("euler", "rk4", "dop853") for side in (True, False)
+                for drag in (True, False)}
+    assert len({v.name for v in variants}) == len(variants) == 12
+    assert KernelVariant("sine", "rk4") == KernelVariant("sine", "rk4", substeps=None)
+    # the closed form has none of the stepping choices
+    closed = KernelVariant("straight", CLOSED_FORM, check_contact=False, lanes=16)
+    assert closed == KernelVariant("straight", CLOSED_FORM) and closed.closed_form
+    words = KernelVariant("sine", "rk4", one_sided=False, drag_linear=True).effects
+    assert "two-sided contact (bead on a wire), sign switches of n" in words
+    assert "air drag (linear)" in words
+    for knobs, message in ((dict(method="leapfrog"), "unknown method"),
+                           (dict(method="rk4", lanes=24), "multiple of 16"),
+                           (dict(method="rk4", substeps=16, unroll=3), "multiple of unroll"),
+                           (dict(method="dopri5", substeps=3), "even"),
+                           (dict(method="rk4", chains=3), "chains")):
+        with pytest.raises(ValueError, match=message):
+            KernelVariant("sine", **knobs)

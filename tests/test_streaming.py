@@ -20,7 +20,9 @@ from rampwork.streaming import ChunkLayout, partial_path
 os.environ.setdefault("HDF5_USE_FILE_LOCKING", "FALSE")
 
 #: global attributes that differ between two runs of the same sweep
-RUN_ATTRS = {"history", "compile_time_s", "run_time_s", "trace_time_s", "threads", "scheduler"}
+#: attributes of how a run went (its kernel's tier and source too), not of its data
+RUN_ATTRS = {"history", "compile_time_s", "run_time_s", "trace_time_s", "threads", "scheduler",
+             "kernel_source", "kernel_tier"}
 
 
 def _scene(**changes):

@@ -138,6 +138,24 @@ def _plan(path: str, scene, sweep):
         raise ConfigError(path, f"{error.where}: {error.problem}") from None
 
 
+def _compile_notice(plan) -> None:
+    """Say so before a kernel is compiled (seconds, where a cached one loads at once)."""
+    from .core.jit import cache_location
+    from .kernels import WARMUP_ENV, choose_tier, kernel_source, missing_general, tier_variant
+
+    tier = choose_tier(plan)
+    if kernel_source(tier_variant(plan, tier), plan) != "compiled":
+        return
+    what = ("the general kernel for every scene of this kind (once per machine)"
+            if tier == "general" else "the kernel for this scene")
+    print(f"compiling    {what}: about 5-15 s; later runs load it from {cache_location()}",
+          flush=True)
+    if tier == "specialised" and os.environ.get(WARMUP_ENV, "1") != "0" and missing_general():
+        print(f"             and, in the background, the general kernels (once per machine, "
+              f"about a minute on one core): then a new scene starts in about a second "
+              f"({WARMUP_ENV}=0 turns this off)", flush=True)
+
+
 def _warn_shadowed(overrides, sweep) -> None:
     """--set of a value that a sweep axis replaces has no effect: say so."""
     names = set(sweep.names)
@@ -230,7 +248,7 @@ def cmd_run(args) -> int:
 
     scene, sweep = _load(args.scene, args.set)
     _warn_shadowed(args.set, sweep)
-    _plan(args.scene, scene, sweep)
+    plan = _plan(args.scene, scene, sweep)
     try:
         job = SweepToFile(scene, sweep, args.output, chunk_size=args.chunk_size, threads=args.threads,
                           resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler)
@@ -242,6 +260,7 @@ def cmd_run(args) -> int:
         if job.resuming:
             print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
                   flush=True)
+        _compile_notice(plan)
     progress = _Progress() if not args.quiet and (args.progress or sys.stderr.isatty()) else None
     try:
         output = job.run(progress)

@@ -26,6 +26,7 @@ from . import validate
 from .core import ramps as core
 from .core.jit import jit, specialise
 from .errors import ConfigError
+from .userfunctions import content_digest
 
 __all__ = [
     "FAMILIES",
@@ -95,10 +96,16 @@ class RampFamily:
 
     ``height`` and ``slope_curvature`` are the jitted core functions with the
     signature ``(x, p0, p1, p2, p3, shared)``.  ``cacheable`` is False for user
-    callables (kernels built on them need ``cache=False``); ``key`` is a name
-    unique to this family object, usable in compiled kernels' names.
+    callables whose values have no stable name (kernels built on them need
+    ``cache=False``; see userfunctions.py); ``key`` is a name unique to what
+    the family computes, usable in compiled kernels' names.
     ``data_names`` are the non-swept inputs that build ``shared`` (spline).
     """
+
+    #: f', f'' cost less to evaluate again than to carry in the kernel's lanes
+    cheap_slope = False
+    #: f'' is the same all along the ramp (no curvature integral needed)
+    constant_curvature = False
 
     def __init__(self, name: str, description: str, parameters: tuple[ParameterSpec, ...],
                  height, slope_curvature, *, is_straight: bool = False,
@@ -198,11 +205,15 @@ def _sign_of(curvatures_nonneg: bool, curvatures_nonpos: bool) -> int | None:
 
 
 class _Straight(RampFamily):
+    cheap_slope = constant_curvature = True
+
     def curvature_sign(self, values, domain, shared=None):
         return 0
 
 
 class _Quadratic(RampFamily):
+    cheap_slope = constant_curvature = True
+
     def curvature_sign(self, values, domain, shared=None):
         k = np.asarray(values["curvature"], dtype=float)
         return _sign_of(bool((k >= 0).all()), bool((k <= 0).all()))
@@ -486,13 +497,19 @@ class Ramp:
             raise ConfigError("ramp.name", f"expected a non-empty string, got {name!r}")
         domain = _check_domain(domain)
         jitted = [_as_dispatcher(label, g) for label, g in (("f", f), ("fp", fp), ("fpp", fpp))]
-        key = f"callable_{next(_CALLABLE_COUNTER)}_{re.sub(r'[^0-9A-Za-z_]', '_', name)}"
+        # kernels on them are cached under a digest of what they compute
+        # (userfunctions.py); where there is none, compiled in every process
+        digest = content_digest(jitted)
+        cacheable = digest is not None
+        key = (f"callable_{digest or next(_CALLABLE_COUNTER)}_"
+               f"{re.sub(r'[^0-9A-Za-z_]', '_', name)}")
         height = specialise(core.callable_height_template, f"{key}_height",
-                            {"USER_F": jitted[0]}, cache=False)
+                            {"USER_F": jitted[0]}, cache=cacheable)
         slope_curvature = specialise(core.callable_slope_curvature_template, f"{key}_slope_curvature",
-                                     {"USER_FP": jitted[1], "USER_FPP": jitted[2]}, cache=False)
+                                     {"USER_FP": jitted[1], "USER_FPP": jitted[2]}, cache=cacheable)
         family = _Callable(name, f"user functions {name!r}", (), height, slope_curvature,
-                           is_straight=curvature_sign == 0, cacheable=False, key=key, sign=curvature_sign)
+                           is_straight=curvature_sign == 0, cacheable=cacheable, key=key,
+                           sign=curvature_sign)
         ramp = cls(CALLABLE, (), domain, (), family)
         ramp._check_functions(curvature_sign, check)
         return ramp

@@ -1,7 +1,7 @@
 """The entry point: run a scene over a sweep and return a labelled Dataset.
 
 Data flows one way: validated :class:`~rampwork.scene.Scene` and
-:class:`~rampwork.scene.Sweep` -> a :class:`RunPlan` (every value checked, the
+:class:`~rampwork.scene.Sweep` -> a :class:`~rampwork.plan.RunPlan` (every value checked, the
 kernel's compile-time choices made) -> flat per-trajectory parameter arrays,
 chunk by chunk -> the compiled kernel fills flat result arrays ->
 ``xarray.Dataset`` following the registry in :mod:`rampwork.schema`.
@@ -9,23 +9,23 @@ chunk by chunk -> the compiled kernel fills flat result arrays ->
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
-import functools
 import math
-import os
 import time
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 import xarray as xr
 
-from . import schema
+from . import kernels, schema
 from .core import kernel as K
 from .core import reduce
-from .core import straight
+from .core.jit import quick_codegen
+from .core.threads import max_threads, using_threads
 from .core.status import STATUS_NAMES
 from .errors import ConfigError
+from .plan import RunPlan, check_memory, plan_run
 from .ramps import Ramp
 from .scene import Scene, Sweep
 
@@ -33,248 +33,9 @@ from .scene import Scene, Sweep
 CHUNK_SIZE = 1 << 18
 #: an adaptive step below this many rounding units of t_max counts as collapsed
 H_MIN_ROUNDING = 4.0
-#: families whose f', f'' cost less to re-evaluate than to carry in the lanes
-CHEAP_FAMILIES = ("straight", "quadratic")
-#: families whose f'' is the same all along the ramp (no curvature integral needed)
-CONSTANT_CURVATURE_FAMILIES = ("straight", "quadratic")
-#: refuse sweeps whose results would not fit in this share of physical memory
-MEMORY_SHARE = 0.5
-#: bytes held per trajectory in memory: result variables plus a chunk's temporaries
-BYTES_PER_TRAJECTORY = 8 * len(schema.OUTPUTS) + 8
-
-
-@dataclass(frozen=True)
-class RunPlan:
-    """A validated run: the kernel's compile-time choices and how to build each
-    trajectory's parameters from the sweep."""
-
-    scene: Scene
-    sweep: Sweep
-    shape: tuple[int, ...]
-    size: int
-    check_contact: bool
-    carry_slope: bool
-    closed_form: bool  # a straight ramp solved exactly, without stepping
-    friction: bool  # mu_k > 0 somewhere: the kernel has a friction branch
-    drag_linear: bool = False  # compile air drag's linear term (some b > 0 in the run)
-    drag_quadratic: bool = False  # and its quadratic term (some c > 0)
-
-    @property
-    def drag(self) -> bool:
-        return self.drag_linear or self.drag_quadratic
-
-    @functools.cached_property
-    def axis_arrays(self) -> dict[str, np.ndarray]:
-        """The sweep's axes as arrays, converted once (not once a chunk)."""
-        return {name: np.asarray(values) for name, values in self.sweep.axes}
-
-    @functools.cached_property
-    def grid_lengths(self) -> np.ndarray:
-        """The grid's axis lengths, for :func:`core.reduce.grid_columns`."""
-        return np.array([len(array) for array in self.axis_arrays.values()], dtype=np.int64)
-
-    @functools.cached_property
-    def grid_values(self) -> np.ndarray:
-        """The grid's axes as rows padded to the longest (float64 axes only)."""
-        values = np.zeros((len(self.axis_arrays), int(self.grid_lengths.max(initial=1))))
-        for row, array in enumerate(self.axis_arrays.values()):
-            values[row, :len(array)] = array
-        return values
-
-    @property
-    def uniform_parameters(self) -> bool:
-        """g and the ramp's shape the same for every trajectory (not swept)."""
-        return not any(name in self.sweep.names
-                       for name in ("g",) + self.scene.ramp.spec.parameter_names)
-
-    @property
-    def paper_criterion(self) -> bool:
-        return "x_lift_off_paper" in self.scene.diagnostics
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return schema.output_names(self.scene.integrator.adaptive, self.scene.diagnostics, self.drag)
-
-    @property
-    def kernel_key(self):
-        scene = self.scene
-        if self.closed_form:
-            return (scene.ramp.spec.key, "closed_form", self.paper_criterion)
-        return (scene.ramp.spec.key, scene.integrator.method, scene.contact == "one_sided",
-                self.check_contact, self.carry_slope, self.paper_criterion, self.friction,
-                self.drag_linear, self.drag_quadratic, self.uniform_parameters)
-
-    @property
-    def effects(self) -> tuple[str, ...]:
-        """What the compiled kernel simulates, in words (for attributes and the CLI)."""
-        scene = self.scene
-        if self.closed_form:
-            solver = "closed form (straight ramp: constant acceleration between events)"
-        else:
-            solver = f"stepping: {scene.integrator.method}"
-        effects = [solver, "kinetic friction" if self.friction else "no friction (mu_k = 0)"]
-        if self.closed_form:
-            effects.append("contact never lost (n = g > 0)")
-        elif scene.contact == "two_sided":
-            effects.append("two-sided contact (bead on a wire)" + (
-                ", sign switches of n" if self.check_contact else ", n > 0 known in advance"))
-        else:
-            effects.append("one-sided contact, " + (
-                "lift-off check" if self.check_contact else "no lift-off check (f'' >= 0)"))
-        if self.drag:
-            effects.append("air drag (" + " and ".join(
-                kind for kind, on in (("linear", self.drag_linear), ("quadratic", self.drag_quadratic))
-                if on) + ")")
-        effects += [f"diagnostic {name}" for name in scene.diagnostics]
-        if scene.record.enabled:
-            effects.append("trajectory recording")
-        return tuple(effects)
-
-
-# ------------------------------------------------------------------------------
-# validation and planning
-# ------------------------------------------------------------------------------
-def _physical_memory() -> int:
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
-        return 8 << 30
-
-
-def check_memory(plan: RunPlan) -> None:
-    """Refuse an in-memory run whose results would not fit (a file written
-    chunk by chunk, :func:`rampwork.run_to_file`, has no such limit)."""
-    memory = plan.size * BYTES_PER_TRAJECTORY
-    if memory > MEMORY_SHARE * _physical_memory():
-        raise ConfigError("sweep", f"{plan.size:,} trajectories need about {memory / 2**30:.1f} GiB for "
-                          f"their results, more than {MEMORY_SHARE:.0%} of this machine's "
-                          f"{_physical_memory() / 2**30:.1f} GiB; split the sweep, or write it to a file "
-                          "chunk by chunk (rampwork.run_to_file, or `rampwork run`)")
-
-
-def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
-    """Check everything about a run before any work starts (except the memory
-    an in-memory result needs: :func:`check_memory`)."""
-    if not isinstance(scene, Scene):
-        raise ConfigError("scene", f"expected a rampwork.Scene, got {type(scene).__name__}")
-    sweep = Sweep.single() if sweep is None else sweep
-    if not isinstance(sweep, Sweep):
-        raise ConfigError("sweep", f"expected a rampwork.Sweep, got {type(sweep).__name__}")
-    allowed = scene.axis_names
-    for name in sweep.names:
-        if name not in allowed:
-            raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
-    size = sweep.size
-    axes = dict(sweep.axes)
-    lo, hi = scene.ramp.domain
-    for k, index in enumerate(scene.record.indices or ()):
-        if index >= size:  # refused before the run, not after it
-            raise ConfigError(f"record.indices[{k}]", f"{index} is beyond the sweep's {size:,} "
-                              f"trajectories (flat indices 0 .. {size - 1:,})")
-
-    x0 = axes.get("x0")
-    if x0 is None:
-        if scene.x0 is None:
-            raise ConfigError("x0", "not given: set the scene's x0 or sweep over x0")
-        x0 = (scene.x0,)
-    x0 = np.asarray(x0)
-    outside = (x0 < lo) | (x0 > hi)
-    if outside.any():
-        where = "sweep.x0" if "x0" in axes else "x0"
-        raise ConfigError(where, f"{float(x0[outside][0])!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
-    for name in ("mu", "mu_k", "mu_s"):
-        if name in axes and min(axes[name]) < 0:
-            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
-    for name in ("drag_linear", "drag_quadratic"):
-        if name in axes and min(axes[name]) < 0:
-            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
-    for name in ("m", "g"):
-        if name in axes and min(axes[name]) <= 0:
-            raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
-    _check_static_friction(scene, sweep)
-
-    # ramp parameters: every combination that occurs must be a valid ramp
-    spec = scene.ramp.spec
-    base = scene.ramp.param_dict()
-    swept = [name for name in spec.parameter_names if name in axes]
-    if sweep.kind == "grid" and swept:
-        mesh = np.meshgrid(*[np.asarray(axes[name]) for name in swept], indexing="ij")
-        combos = {name: grid.ravel() for name, grid in zip(swept, mesh)}
-    else:
-        combos = {name: np.asarray(axes[name]) for name in swept}
-    values = {name: combos.get(name, np.array([base[name]])) for name in spec.parameter_names}
-    shared = scene.ramp.shared or None
-    spec.check_values(values, scene.ramp.domain, shared)
-    # n = g + v^2 f'' > 0 for all v where f'' >= 0: no lift-off or contact switch
-    sign = spec.curvature_sign(values, scene.ramp.domain, shared)
-    check_contact = not (sign is not None and sign >= 0)
-    carry_slope = scene.ramp.family not in CHEAP_FAMILIES
-    # air drag is compiled in only where some trajectory of the run has it
-    drag_linear = bool(max(axes.get("drag_linear", (scene.drag.linear,))) > 0)
-    drag_quadratic = bool(max(axes.get("drag_quadratic", (scene.drag.quadratic,))) > 0)
-    # f'' == 0 everywhere: f' is constant, the motion has a closed form (without drag)
-    closed_form = (scene.integrator.closed_form and sign == 0
-                   and not (drag_linear or drag_quadratic))
-    mu_k = axes.get("mu", axes.get("mu_k", (scene.friction.mu_k,)))
-    friction = bool(max(mu_k) > 0.0)
-    if "x_lift_off_paper" in scene.diagnostics and (drag_linear or drag_quadratic):
-        raise ConfigError("diagnostics", "x_lift_off_paper (the paper's eq. 26) is defined for "
-                          "friction without air drag; remove the drag or the diagnostic")
-    return RunPlan(scene, sweep, sweep.shape, size, check_contact, carry_slope, closed_form,
-                   friction, drag_linear, drag_quadratic)
-
-
-def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
-    axes = dict(sweep.axes)
-    if "mu" in axes:
-        return
-    mu_k = np.asarray(axes.get("mu_k", (scene.friction.mu_k,)))
-    mu_s = np.asarray(axes.get("mu_s", (scene.friction.mu_s,)))
-    if sweep.kind == "cases" and "mu_k" in axes and "mu_s" in axes:
-        bad = mu_s < mu_k
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ConfigError("sweep.mu_s", f"must be >= mu_k in every case; case {i} has "
-                              f"mu_s = {float(mu_s[i])!r} < mu_k = {float(mu_k[i])!r}")
-    elif mu_s.min() < mu_k.max():
-        raise ConfigError("sweep.mu_s" if "mu_s" in axes else "friction.mu_s",
-                          f"must be >= mu_k: mu_s = {float(mu_s.min())!r} < mu_k = {float(mu_k.max())!r}; "
-                          "sweep 'mu' to set both together")
-
-
 # ------------------------------------------------------------------------------
 # kernels
 # ------------------------------------------------------------------------------
-_KERNELS: dict = {}
-
-
-def get_kernel(plan: RunPlan):
-    """The compiled ``(run_batch, trace_one)`` for a plan, built once per process
-    (and loaded from numba's on-disk cache when it was compiled before).
-    Returns ``(kernels, seconds)``, seconds spent building and loading."""
-    key = plan.kernel_key
-    if key in _KERNELS:
-        return _KERNELS[key], 0.0
-    started = time.perf_counter()
-    spec = plan.scene.ramp.spec
-    if plan.closed_form:
-        kernels = straight.build_closed_form(spec.height, spec.slope_curvature, name=spec.key,
-                                             paper_criterion=plan.paper_criterion,
-                                             cache=spec.cacheable)
-        _KERNELS[key] = kernels
-        return kernels, time.perf_counter() - started
-    kernels = K.build_kernel(
-        plan.scene.integrator.method, spec.height, spec.slope_curvature, name=spec.key,
-        one_sided=plan.scene.contact == "one_sided", check_contact=plan.check_contact,
-        carry_slope=plan.carry_slope, drag_linear=plan.drag_linear,
-        drag_quadratic=plan.drag_quadratic, paper_criterion=plan.paper_criterion,
-        friction=plan.friction,
-        constant_curvature=plan.scene.ramp.family in CONSTANT_CURVATURE_FAMILIES,
-        uniform_parameters=plan.uniform_parameters, cache=spec.cacheable)
-    _KERNELS[key] = kernels
-    return kernels, time.perf_counter() - started
-
-
 def _settings(scene: Scene) -> np.ndarray:
     settings = np.zeros(K.N_SETTINGS)
     settings[K.SET_XLO], settings[K.SET_XHI] = scene.ramp.domain
@@ -306,15 +67,66 @@ class Prepared:
     settings: np.ndarray
     shared: np.ndarray
     compile_seconds: float
+    kernel_source: str  # see kernels.kernel_source()
+    tier: str  # "general" or "specialised" (see rampwork.kernels)
 
 
-def prepare(plan: RunPlan) -> Prepared:
-    """Build (or load) the plan's kernels and compile them on one trajectory."""
-    (run_batch, trace_one), build_seconds = get_kernel(plan)
-    settings = _settings(plan.scene)
-    compile_seconds = build_seconds + _warm_up(run_batch, plan, settings)
-    return Prepared(plan, run_batch, trace_one, settings, plan.scene.ramp.shared_array(),
-                    compile_seconds)
+def prepare(plan: RunPlan, kernel: str | None = None) -> Prepared:
+    """Build (or load) the kernels of the plan's tier (``kernel``: a tier of
+    ``kernels.TIERS``; None: the default) and compile them on one trajectory."""
+    tier = kernels.choose_tier(plan, kernel)
+    variant = kernels.tier_variant(plan, tier)
+    source = kernels.kernel_source(variant, plan)
+    if source == "compiled" and tier == "specialised":
+        kernels.start_warmup()  # the general kernels, once per machine, in the background
+    (run_batch, trace_one), build_seconds = kernels.get_kernel(variant, plan)
+    settings = np.concatenate([_settings(plan.scene), kernels.runtime_settings(plan)])
+    shared = kernels.tier_shared(plan, tier)
+    with _codegen(tier):
+        compile_seconds = build_seconds + _warm_up(run_batch, plan, settings, shared)
+    return Prepared(plan, run_batch, trace_one, settings, shared, compile_seconds, source, tier)
+
+
+#: trajectories per chunk while the general kernel may hand over: the hand-over points
+GENERAL_CHUNK = 4096
+#: general-kernel seconds still to go above which the specialised kernel is
+#: compiled in the background (its compilation takes 5-15 s on 2 cores)
+SPECIALISE_AFTER_S = 2.0
+_COMPILER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="rampwork-compile")
+
+
+class _Handover:
+    """The prepared kernel for each chunk of a run.  A run that starts on the
+    general kernel (``auto``) and would keep it busy for more than
+    SPECIALISE_AFTER_S compiles its specialised kernel in the background
+    and hands over to it at the next chunk boundary (equal results)."""
+
+    def __init__(self, plan: RunPlan, prepared: Prepared, auto: bool):
+        self.plan = plan
+        self.first = self.prepared = prepared
+        self.may_specialise = auto and prepared.tier == "general"
+        self.compiling = None
+
+    def current(self) -> Prepared:
+        if self.compiling is not None and self.compiling.done():
+            self.prepared = self.compiling.result()  # a compilation error is raised here
+            self.compiling = None
+            self.may_specialise = False
+        return self.prepared
+
+    def chunk_size(self) -> int:
+        waiting = self.may_specialise or self.compiling is not None
+        return GENERAL_CHUNK if self.prepared.tier == "general" and waiting else CHUNK_SIZE
+
+    def after_chunk(self, done: int, left: int, seconds: float) -> None:
+        if (self.may_specialise and self.compiling is None and left > 0
+                and seconds / max(done, 1) * left > SPECIALISE_AFTER_S):
+            self.compiling = _COMPILER.submit(prepare, self.plan, "specialised")
+
+
+def _codegen(tier: str):
+    """How a tier's kernels are compiled (see core.jit.quick_codegen)."""
+    return quick_codegen() if tier == "general" else contextlib.nullcontext()
 
 
 def empty_results(plan: RunPlan, n: int) -> dict[str, np.ndarray]:
@@ -362,19 +174,9 @@ def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
     return reduce_outputs(raw, inputs, _masses(plan, start, stop), out=out)
 
 
-@contextlib.contextmanager
-def using_threads(threads: int):
-    """numba's thread count (restored afterwards) and one-tile scheduling."""
-    previous_threads = numba.get_num_threads()
-    numba.set_num_threads(threads)
-    try:
-        with numba.parallel_chunksize(1):
-            yield
-    finally:
-        numba.set_num_threads(previous_threads)
 
 
-def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray) -> float:
+def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray, shared: np.ndarray) -> float:
     """Compile (or load) the kernel on one trajectory that ends at once (it
     starts on the domain's upper end moving out), so that compile time is
     measured apart from run time."""
@@ -383,7 +185,7 @@ def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray) -> float:
     inputs[K.IN_X0] = plan.scene.ramp.domain[1]
     inputs[K.IN_V0] = 1.0
     raw = np.zeros((K.N_OUTPUTS, 1))
-    run_batch(inputs, settings, raw, plan.scene.ramp.shared_array(), 1)
+    run_batch(inputs, settings, raw, shared, 1)
     reduce_outputs(raw, inputs, np.ones(1), out=empty_results(plan, 1))
     return time.perf_counter() - started
 
@@ -479,17 +281,12 @@ def reduce_outputs(raw: np.ndarray, inputs: np.ndarray, mass: np.ndarray,
 
     reduce.reduce_rows(raw, inputs[K.IN_X0], inputs[K.IN_MUK], inputs[K.IN_G],
                        np.ascontiguousarray(mass, dtype=np.float64),
-                       *(target(name) for name in _REDUCED_OUTPUTS))
+                       *(target(name) for name in schema.OUTPUTS))  # in the schema's order
     return out
 
 
-#: reduce_rows's output arguments, in its order
-_REDUCED_OUTPUTS = ("status", "t_end", "x_end", "v_end", "convexity_mean", "path_length_x",
-                    "n_reversals", "x_lift_off", "x_lift_off_paper", "steps", "steps_rejected",
-                    "W_friction", "W_energy", "W_friction_error_estimate", "W_drag", "W_linear",
-                    "W_excess", "W_path", "energy_balance_error")
-#: the ones reduce_rows skips when given an empty array
-_OPTIONAL_OUTPUTS = ("x_lift_off_paper", "steps_rejected", "W_friction_error_estimate", "W_drag")
+#: outputs a run may not have: reduce_rows skips those given as empty arrays
+_OPTIONAL_OUTPUTS = tuple(name for name, spec in schema.OUTPUTS.items() if spec.present != "always")
 
 
 def tile_size(n: int, threads: int) -> int:
@@ -503,29 +300,41 @@ def tile_size(n: int, threads: int) -> int:
 # the entry point
 # ------------------------------------------------------------------------------
 def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = None,
-             progress=None) -> xr.Dataset:
+             progress=None, kernel: str | None = None) -> xr.Dataset:
     """Run ``scene`` over ``sweep`` (default: one trajectory) and return the
     per-trajectory results as an ``xarray.Dataset`` (DESIGN §2).
 
     ``threads``: worker threads (default: all of numba's).  ``progress``: an
     optional callable ``progress(done, total)`` called after each chunk.
+    ``kernel``: ``"auto"`` (default, or ``RAMPWORK_KERNEL``), ``"general"``
+    or ``"specialised"`` (see :mod:`rampwork.kernels`; results are equal).
     """
     plan = plan_run(scene, sweep)
+    kernels.requested_tier(kernel)  # a bad tier is refused before any work
     check_memory(plan)
     threads = thread_count(threads)
-    prepared = prepare(plan)
+    prepared = prepare(plan, kernel)
+    tiers = [prepared.tier]
+    handover = _Handover(plan, prepared, kernels.requested_tier(kernel) == "auto")
 
     results = empty_results(plan, plan.size)
     started = time.perf_counter()
     buffers = ChunkBuffers(plan, min(plan.size, CHUNK_SIZE))
     with using_threads(threads):
-        for start in range(0, plan.size, CHUNK_SIZE):
-            stop = min(plan.size, start + CHUNK_SIZE)
+        start = 0
+        while start < plan.size:
+            prepared = handover.current()
+            if prepared.tier not in tiers:
+                tiers.append(prepared.tier)
+            stop = min(plan.size, start + handover.chunk_size())
+            chunk_started = time.perf_counter()
             run_chunk(prepared, start, stop, threads,
                       out={name: array[start:stop] for name, array in results.items()},
                       buffers=buffers)
+            handover.after_chunk(stop - start, plan.size - stop, time.perf_counter() - chunk_started)
             if progress is not None:
                 progress(stop, plan.size)
+            start = stop
     run_seconds = time.perf_counter() - started
 
     layout = dataset_layout(plan)
@@ -535,7 +344,9 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
         dataset, trace_seconds = with_traces(prepared, dataset)
         dataset.attrs["trace_time_s"] = trace_seconds
     steps = int(results["steps"].sum())
-    dataset.attrs.update(attributes(plan, prepared.compile_seconds, run_seconds, threads, steps))
+    dataset.attrs.update(attributes(plan, handover.first.compile_seconds, run_seconds, threads,
+                                    steps, kernel_source=handover.first.kernel_source,
+                                    kernel_tier=", then ".join(tiers)))
     return dataset
 
 
@@ -543,12 +354,13 @@ def with_traces(prepared: Prepared, dataset: xr.Dataset) -> tuple[xr.Dataset, fl
     """``dataset`` with the scene's recorded trajectories merged in, and the
     seconds they took (including ``trace_one``'s own first compilation)."""
     started = time.perf_counter()
-    traces = _traces(prepared.plan, prepared.trace_one, prepared.settings, prepared.shared)
+    with _codegen(prepared.tier):
+        traces = _traces(prepared.plan, prepared.trace_one, prepared.settings, prepared.shared)
     return dataset.merge(traces), time.perf_counter() - started
 
 
 def thread_count(threads: int | None) -> int:
-    available = numba.config.NUMBA_NUM_THREADS
+    available = max_threads()
     if threads is None:
         return available
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
@@ -637,7 +449,8 @@ def scene_text(scene: Scene, sweep: Sweep) -> str:
 
 
 def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
-               entry: str = "rampwork.simulate") -> dict:
+               entry: str = "rampwork.simulate", kernel_source: str | None = None,
+               kernel_tier: str = "specialised") -> dict:
     """The dataset's global attributes (``entry``: what made it, for history)."""
     scene = plan.scene
     return schema.global_attrs(
@@ -653,11 +466,14 @@ def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
             "t_max": scene.t_max,
             "contact": scene.contact,
             **({"drag_linear": scene.drag.linear, "drag_quadratic": scene.drag.quadratic}
-               if plan.drag else {}),
+               if plan.variant.drag else {}),
             "sweep_kind": plan.sweep.kind,
-            "kernel_checks_contact": int(plan.check_contact),
-            "kernel_closed_form": int(plan.closed_form),
+            "kernel_checks_contact": int(plan.variant.check_contact),
+            "kernel_closed_form": int(plan.variant.closed_form),
             "kernel_effects": "; ".join(plan.effects),
+            "kernel_variant": plan.variant.name,
+            "kernel_tier": kernel_tier,
+            **({"kernel_source": kernel_source} if kernel_source else {}),
             "n_trajectories": plan.size,
             "trajectory_steps": steps,
             "compile_time_s": compile_seconds,

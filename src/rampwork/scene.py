@@ -13,11 +13,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import validate
-from .core.steppers import ADAPTIVE_STEPPERS, STEPPERS
+from .core import steppers
+from .core.steppers import ADAPTIVE_STEPPERS
 from .errors import ConfigError
 from .ramps import Ramp
 
-METHODS = tuple(STEPPERS) + tuple(ADAPTIVE_STEPPERS)
+METHODS = tuple(steppers.METHODS)
 #: fixed-step methods' step when none is given (s)
 DEFAULT_DT = 1e-3
 #: adaptive methods' relative tolerance when none is given, and the ranges
@@ -138,7 +139,7 @@ class Integrator:
 
     @property
     def order(self) -> int:
-        return {**STEPPERS, **ADAPTIVE_STEPPERS}[self.method][1]
+        return steppers.METHODS[self.method].order
 
     def settings(self) -> dict:
         """The integrator's numeric settings that apply (for attributes and

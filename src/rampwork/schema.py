@@ -60,6 +60,9 @@ class VariableSpec:
 
     ``fill_value`` is the value for "missing / not computed" (NaN for floats,
     None for integers, which are written without a ``_FillValue``).
+    ``present`` says when a per-trajectory output is in a run's dataset:
+    ``"always"``, ``"adaptive"`` (adaptive methods only), ``"diagnostic"``
+    (when the scene asks for it) or ``"drag"`` (runs with air drag).
     """
 
     name: str
@@ -68,14 +71,16 @@ class VariableSpec:
     dtype: str
     description: str
     fill_value: Any = None
+    present: str = "always"
 
     @property
     def np_dtype(self) -> np.dtype:
         return np.dtype(self.dtype)
 
 
-def _f(name, units, long_name, description, dtype="float64"):
-    return VariableSpec(name, units, long_name, dtype, description, fill_value=_NAN)
+def _f(name, units, long_name, description, dtype="float64", present="always"):
+    return VariableSpec(name, units, long_name, dtype, description, fill_value=_NAN,
+                        present=present)
 
 
 def _i(name, dtype, long_name, description, units="1"):
@@ -178,6 +183,7 @@ _OUTPUT_LIST = (
         "x where y'' <= -g (the paper's eq. 26) first held: it differs from the contact-force "
         "x_lift_off where d mu_k f' > 1 (sliding up a steep slope: it reports lift-off while the "
         "surface still pushes); NaN where it never held; only when the scene asks for it",
+        present="diagnostic",
     ),
     _i(
         "steps",
@@ -197,6 +203,7 @@ _OUTPUT_LIST = (
         "error estimate of the work against friction",
         "sum over the accepted steps of the embedded pair's local error estimate of W_friction "
         "(adaptive methods only; compare energy_balance_error)",
+        present="adaptive",
     ),
     _f(
         "W_drag",
@@ -205,15 +212,16 @@ _OUTPUT_LIST = (
         "work done against air drag integrated along the trajectory: m times the integral of "
         "(b s'^2 + c s'^3) dt, s' the speed along the path (runs with air drag only; "
         "energy_balance_error is then W_friction + W_drag - W_energy)",
+        present="drag",
     ),
 )
 
 #: outputs that only adaptive methods produce
-ADAPTIVE_OUTPUTS = ("W_friction_error_estimate",)
+ADAPTIVE_OUTPUTS = tuple(s.name for s in _OUTPUT_LIST if s.present == "adaptive")
 #: outputs computed only when a scene asks for them (Scene.diagnostics)
-DIAGNOSTIC_OUTPUTS = ("x_lift_off_paper",)
+DIAGNOSTIC_OUTPUTS = tuple(s.name for s in _OUTPUT_LIST if s.present == "diagnostic")
 #: outputs that only runs with air drag produce
-DRAG_OUTPUTS = ("W_drag",)
+DRAG_OUTPUTS = tuple(s.name for s in _OUTPUT_LIST if s.present == "drag")
 
 
 def output_names(adaptive: bool, diagnostics: tuple[str, ...] = (), drag: bool = False) -> tuple[str, ...]:

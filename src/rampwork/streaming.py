@@ -272,7 +272,9 @@ class SweepToFile:
         for index in range(self.layout.count):  # chunk by chunk: memory stays bounded
             steps += int(np.asarray(nc["steps"][self.layout.piece(index)[2]], dtype=np.int64).sum())
         attrs = runner.attributes(self.plan, info["compile_time_s"], run_seconds, info["threads"], steps,
-                                  entry="rampwork.run_to_file")
+                                  entry="rampwork.run_to_file",
+                                  kernel_source=info.get("kernel_source"),
+                                  kernel_tier=info.get("kernel_tier", "specialised"))
         if self.plan.scene.record.enabled:
             traces, attrs["trace_time_s"] = info["traces"]()
             io.define_variables(nc, traces, compression_level=self.compression_level)
@@ -286,6 +288,7 @@ class SweepToFile:
         """The pending chunks' results, in order, computed here; fills ``info``."""
         prepared = runner.prepare(self.plan)
         info.update({"compile_time_s": prepared.compile_seconds, "threads": self.threads,
+                     "kernel_source": prepared.kernel_source, "kernel_tier": prepared.tier,
                      "traces": lambda: _traces(prepared)})
 
         def chunks():
@@ -423,7 +426,7 @@ def _connect(scheduler):
 
 
 #: on a worker: prepared runs by scene text digest, and one kernel call at a
-#: time (a worker's threads share numba's thread pool)
+#: time (a worker's threads share the kernels' thread pool)
 _WORKER_RUNS: dict[str, runner.Prepared] = {}
 _WORKER_LOCK = threading.Lock()
 
@@ -435,7 +438,7 @@ def _worker_prepared(text: str) -> tuple[runner.Prepared, float]:
     if key in _WORKER_RUNS:
         return _WORKER_RUNS[key], 0.0
     scene, sweep = parse_scene(text, "scene shipped to a worker")
-    prepared = runner.prepare(runner.plan_run(scene, sweep))
+    prepared = runner.prepare(runner.plan_run(scene, sweep), "specialised")  # as the file says
     _WORKER_RUNS[key] = prepared
     return prepared, prepared.compile_seconds
 

@@ -7,6 +7,7 @@ valid: no ``fastmath`` flag that assumes finite values.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import pathlib
@@ -107,6 +108,47 @@ def specialise(template, name: str, constants: dict, **jit_overrides):
     function.__qualname__ = qualname
     function.__doc__ = template.__doc__
     return jit(function, **jit_overrides)
+
+
+#: LLVM optimisation level of the general kernels (see :func:`quick_codegen`)
+QUICK_OPT = 1
+
+
+@contextlib.contextmanager
+def quick_codegen():
+    """Compile inside the block at a low LLVM optimisation level and without
+    vectorisation, for the general kernels: their code holds every family and
+    effect, so full optimisation of it would take far longer than the runs
+    it serves (a fallback tier: run time matters less than latency).  The
+    arithmetic is the same (no fast-math at any level), so are the results.
+    Holds numba's compiler lock, so no other compilation sees the settings."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    with global_compiler_lock:
+        saved = numba.config.OPT, numba.config.LOOP_VECTORIZE, numba.config.SLP_VECTORIZE
+        numba.config.OPT = type(saved[0])(QUICK_OPT)
+        numba.config.LOOP_VECTORIZE = numba.config.SLP_VECTORIZE = False
+        try:
+            yield
+        finally:
+            numba.config.OPT, numba.config.LOOP_VECTORIZE, numba.config.SLP_VECTORIZE = saved
+
+
+def disk_cached(dispatcher) -> bool | None:
+    """Whether numba's disk cache holds a current compilation of ``dispatcher``
+    (its index exists and matches the source), without compiling or loading
+    it; None where that cannot be told (no cache, or numba's internals moved)."""
+    try:
+        cache = dispatcher._cache
+        return bool(cache._cache_file._load_index()) if cache is not None else None
+    except Exception:  # noqa: BLE001 - a private API: unknown rather than wrong
+        return None
+
+
+def cache_location() -> str:
+    """Where numba keeps compiled kernels: NUMBA_CACHE_DIR, or __pycache__
+    folders beside rampwork's sources."""
+    return numba.config.CACHE_DIR or str(pathlib.Path(__file__).parent / "__pycache__")
 
 
 @intrinsic

@@ -29,12 +29,15 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from . import status as st
 from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
 from .jit import flip_sign, fma, specialise
+from . import straight
+from .variant import KernelVariant
+from . import general
+from .threads import TiledKernel
 from .physics import (acceleration, acceleration_frictionless, departure_direction, drag_rate,
                       normal_term, specific_energy)
 from . import adaptive as adaptive_parts
@@ -66,7 +69,8 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
  resolve_linear, take_event, step_and_check, checkpoint_lanes, replay_lane,
- copy_stepped_state, attempt_once, lane_parameters, uniform_parameters) = (None,) * 34
+ copy_stepped_state, attempt_once, lane_parameters, uniform_parameters,
+ runtime_flags) = (None,) * 35
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -921,6 +925,7 @@ def _active_span(running):
 def _run_tile(start, stop, inputs, settings, outputs, shared):
     """Run trajectories start..stop-1 through one block of LANES lanes."""
     lanes = new_lanes()
+    runtime_flags(lanes, settings)  # a general kernel's choices (general.py)
     next_j = start
     for i in range(LANES):
         next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
@@ -942,11 +947,11 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
             n_active = active_span(compact_lanes(lanes))
 
 
-def _run_batch(inputs, settings, outputs, shared, tile_size):
-    """All trajectories (columns of ``inputs``), tiles spread over threads."""
+def _run_tiles(first_tile, stop_tile, tile_size, inputs, settings, outputs, shared):
+    """Tiles first_tile .. stop_tile - 1 of the trajectories (columns of
+    ``inputs``); ``threads.TiledKernel`` spreads the tiles over threads."""
     n = inputs.shape[1]
-    n_tiles = (n + tile_size - 1) // tile_size
-    for tile in numba.prange(n_tiles):
+    for tile in range(first_tile, stop_tile):
         start = tile * tile_size
         stop = min(n, start + tile_size)
         run_tile(start, stop, inputs, settings, outputs, shared)
@@ -958,6 +963,7 @@ def _trace_one(j, inputs, settings, shared, every, trace):
     Returns the number of samples written."""
     outputs = np.zeros((N_OUTPUTS, inputs.shape[1]))
     lanes = new_lanes()
+    runtime_flags(lanes, settings)
     max_samples = trace.shape[1]
     h = settings[SET_DT]
     count = 0
@@ -1000,115 +1006,66 @@ def _no_adaptive_start(lanes, i, settings, shared):
     """Fixed-step methods have no step-control state."""
 
 
-def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
-                 one_sided: bool = True, check_contact: bool = True, carry_slope: bool = True,
-                 drag_linear: bool = False, drag_quadratic: bool = False,
-                 lanes: int = 64, substeps: int | None = None, chains: int = 2,
-                 unroll: int | None = None, paper_criterion: bool = False,
-                 friction: bool = True, constant_curvature: bool = False,
-                 uniform_parameters: bool = False, cache: bool = True):
-    """Compile (or load from numba's on-disk cache) the kernels for one scene.
+def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn, *,
+                 cache: bool = True):
+    """Compile (or load from numba's on-disk cache) the kernels of one variant.
 
-    ``method`` is a fixed-step method of ``steppers.STEPPERS`` or an adaptive
-    pair of ``steppers.ADAPTIVE_STEPPERS`` (which always carries f', f'':
-    its last stage evaluates them at the new state anyway).  ``name`` must
-    identify the ramp functions uniquely (the family name for built-in
-    families).  Returns ``(run_batch, trace_one)``:
+    ``variant`` (:class:`~rampwork.core.variant.KernelVariant`) holds every
+    compile-time choice; ``ramp_height_fn`` and ``ramp_slope_curvature_fn``
+    are its family's jitted functions (``variant.family`` names them
+    uniquely); ``cache=False`` for functions that cannot be found again
+    (user callables).  A closed-form variant is built by
+    ``straight.build_closed_form``.  Returns ``(run_batch, trace_one)``:
     ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
-    ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n) in parallel;
-    ``lanes``, ``substeps`` (steps between scalar passes), ``chains`` (1 or
-    2 lane-loop halves side by side) and ``unroll`` (fixed steps per lane
-    visit, state in registers; default 1) are tuning knobs
-    that do not change results;
-    ``drag_linear``, ``drag_quadratic``: compile air drag's linear
-    (``IN_DRAG_B``) and quadratic (``IN_DRAG_C``) terms and the drag work
-    (``OUT_DRAG_WORK``); without them the inputs' drag rows are ignored and
-    the kernel is the same arithmetic as one built before drag existed;
-    ``paper_criterion`` records where the paper's eq. (26) first holds
-    (output row OUT_XLIFT_PAPER; NaN without it); ``friction=False`` (for
-    runs whose mu_k is 0 everywhere) compiles no kinetic friction at all:
-    the acceleration without the friction term, no friction work (the same
-    results, but perhaps the sign of a zero); ``constant_curvature`` (a
-    family whose f'' is the same all along the ramp: straight, quadratic)
-    reports f'' itself as convexity_mean and, with fixed steps, accumulates
-    no curvature integral (the adaptive pairs keep it: it is part of their
-    error norm); ``uniform_parameters`` (g and the
-    ramp parameters the same for every trajectory: ``settings[SET_G],
-    settings[SET_P0..3]``) lets the lane loops keep them in registers;
-    ``trace_one(j, inputs, settings, shared, every, trace)`` records one.
+    ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n), tiles spread
+    over threads; ``trace_one(j, inputs, settings, shared, every, trace)``
+    records one.  Without drag the inputs' drag rows are ignored; without
+    ``paper_criterion`` the OUT_XLIFT_PAPER row is NaN; ``friction=False``
+    gives the same results but perhaps the sign of a zero;
+    ``constant_curvature`` reports f'' itself as convexity_mean and, with
+    fixed steps, accumulates no curvature integral (the adaptive pairs keep
+    it: it is part of their error norm).
     """
-    adaptive = method in ADAPTIVE_STEPPERS
-    carry_slope = carry_slope or adaptive
-    flags = (("one" if one_sided else "two") + ("_contact" if check_contact else "")
-             + ("_carry" if carry_slope else "") + ("_dragb" if drag_linear else "")
-             + ("_dragc" if drag_quadratic else "") + ("_paper" if paper_criterion else "")
-             + ("" if friction else "_nofriction"))
-    # known in advance from the method: first-order steps use the start's
-    # n and v, so their friction work h q n v = h mu_k |n| |v| is >= 0, and
-    # a step that ends with d v > 0 moved x in direction d (explicit Euler:
-    # x + h v; semi-implicit: x + h v_new); an explicit Euler step (without
-    # drag) is linear in h: events in closed form
-    first_order = method in ("euler", "semi_implicit_euler")
-    constant_curvature = bool(constant_curvature)
-    linear_events = method == "euler" and not (drag_linear or drag_quadratic)
-    uniform_parameters = bool(uniform_parameters)
-    flags += (("_constk" if constant_curvature else "") + ("_lin" if linear_events else "")
-              + ("_uniform" if uniform_parameters else ""))
-    if substeps is None:
-        substeps = N_SUBSTEPS_ADAPTIVE if adaptive else N_SUBSTEPS
-    if unroll is None:
-        # with the flag design (see _fixed_step_lane) one step per visit is
-        # fastest for every method: Euler 1.27 ns/step against 1.86 with two
-        # (AMD EPYC, AVX2, one thread, the throughput benchmark's sweep)
-        unroll = 1
-    if substeps % unroll:
-        raise ValueError(f"substeps ({substeps}) must be a multiple of unroll ({unroll})")
-    if adaptive and substeps % 2:
-        raise ValueError(f"substeps ({substeps}) must be even for an adaptive pair: its attempts "
-                         "alternate between two banks of the lane state")
-    variant = f"{name}_{method}_{flags}_{lanes}_{substeps}_{chains}_{unroll}"
+    if variant.closed_form:
+        return straight.build_closed_form(variant, ramp_height_fn, ramp_slope_curvature_fn,
+                                          cache=cache)
+    n_lane_fields = N_LANE_FIELDS if variant.adaptive else N_FIELDS
     constants = {
+        **variant.constants(),
         "ramp_height": ramp_height_fn,
         "ramp_slope_curvature": ramp_slope_curvature_fn,
-        "ONE_SIDED": one_sided,
-        "CHECK_CONTACT": check_contact,
-        "CARRY_SLOPE": carry_slope,
-        "LANES": lanes,
-        "ADAPTIVE": adaptive,
-        "SUBSTEPS": substeps,
-        "CHAINS": chains,
-        "UNROLL": unroll,
-        "PAPER_CRITERION": paper_criterion,
-        "FRICTION": bool(friction),
-        "WORK_SIGN_CHECK": not first_order,
-        "CONSTANT_CURVATURE": constant_curvature,
-        "LINEAR_EVENTS": linear_events,
-        "MONOTONE_STEP": first_order,
-        "UNIFORM_PARAMETERS": uniform_parameters,
         # the lane array: fixed-step kernels leave out the adaptive bank B
         # (a smaller block stays in the L1 cache)
-        "N_LANE_FIELDS": N_LANE_FIELDS if adaptive else N_FIELDS,
+        "N_LANE_FIELDS": n_lane_fields,
         # every template calls `acceleration` by this global name
-        "acceleration": acceleration if friction else acceleration_frictionless,
-        "DRAG_LINEAR": bool(drag_linear),
-        "DRAG_QUADRATIC": bool(drag_quadratic),
-        "DRAG": bool(drag_linear or drag_quadratic),
+        "acceleration": acceleration if variant.friction else acceleration_frictionless,
     }
+    name = variant.name
+    if variant.runtime:  # general.py: the runtime flags after the lane scratch
+        constants.update(N_SCRATCH=N_SCRATCH + general.N_RUNTIME, SET_RUNTIME=N_SETTINGS,
+                         RUNTIME_BASE=n_lane_fields * variant.lanes + N_SCRATCH)
 
     def add(key, function, **options):
-        constants[key] = specialise(function, f"{key}_{variant}", constants, cache=cache, **options)
+        if variant.runtime:
+            function = general.read_at_run_time(function)
+        constants[key] = specialise(function, f"{key}_{name}", constants, cache=cache, **options)
         return constants[key]
 
-    # The scalar helpers allocate nothing, so they are compiled without numba's
+    # Helpers are only called from jitted code: no Python or C wrappers (they
+    # would be generated, optimised and emitted for nothing).  The scalar
+    # helpers allocate nothing, so they are compiled without numba's
     # reference counting: otherwise every call passing the lane array does
     # atomic incref/decref pairs, which cost more than the event arithmetic
     # itself (measured: 20-25 % of the whole run on an event-rich sweep).
-    no_refcount = {"_nrt": False}
+    internal = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+    no_refcount = {"_nrt": False, **internal}
+    add("runtime_flags", general._copy_runtime_flags if variant.runtime
+        else general._no_runtime_flags, **no_refcount)
     add("lane_parameters", parameters._lane_parameters, **no_refcount)
     add("uniform_parameters", parameters._uniform_parameters, **no_refcount)
 
-    if adaptive:
-        pair = ADAPTIVE_STEPPERS[method]
+    if variant.adaptive:
+        pair = ADAPTIVE_STEPPERS[variant.method]
         constants["PI_ALPHA"], constants["PI_BETA"] = pair.pi_gains
         for key, template in pair.helpers:
             add(key, template, **no_refcount)
@@ -1127,7 +1084,12 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         )
     else:
         add("_with_drag", steppers._with_drag, **no_refcount)
-        add("step", STEPPERS[method][0], **no_refcount)
+        if variant.runtime:  # the method by its id in shared[1]
+            for k, method in enumerate(STEPPERS.values()):
+                add(f"STEP_{k}", method.step, **no_refcount)
+            add("step", general._switch_step, **no_refcount)
+        else:
+            add("step", STEPPERS[variant.method].step, **no_refcount)
         method_parts = (
             ("start_value", _start_value), ("trial_step", _trial_step),
             ("event_values", _event_values), ("event_value", _event_value),
@@ -1137,7 +1099,7 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
             ("copy_stepped_state", _copy_stepped_state),
             ("checkpoint_lanes", _checkpoint_lanes), ("replay_lane", _replay_lane),
         )
-    if paper_criterion:
+    if variant.paper_criterion or variant.runtime:
         add("_paper_holds", _paper_holds, **no_refcount)
         add("paper_scan", _paper_scan, **no_refcount)
     for key, function in method_parts + (
@@ -1147,15 +1109,16 @@ def build_kernel(method: str, ramp_height_fn, ramp_slope_curvature_fn, *, name: 
         ("finish_lane", _finish_lane), ("apply_event", _apply_event),
         ("take_event", _take_event), ("resolve_linear", _resolve_linear),
         ("load_lane", _load_lane),
-        ("resolve_lane", adaptive_parts._resolve_lane_adaptive if adaptive else _resolve_lane),
+        ("resolve_lane",
+         adaptive_parts._resolve_lane_adaptive if variant.adaptive else _resolve_lane),
         ("fill_lane", _fill_lane),
         ("advance_lanes",
-         adaptive_parts._advance_lanes_adaptive if adaptive else _advance_lanes),
+         adaptive_parts._advance_lanes_adaptive if variant.adaptive else _advance_lanes),
         ("scan_lanes", _scan_lanes), ("compact_lanes", _compact_lanes),
         ("active_span", _active_span), ("run_tile", _run_tile),
     ):
-        options = {} if key in ("run_tile", "new_lanes") else dict(no_refcount)
+        options = dict(internal) if key in ("run_tile", "new_lanes") else dict(no_refcount)
         add(key, function, **options)
-    run_batch = add("run_batch", _run_batch, parallel=True)
+    run_batch = TiledKernel(add("run_tiles", _run_tiles))
     trace_one = add("trace_one", _trace_one)
     return run_batch, trace_one

@@ -11,9 +11,8 @@ order as the numpy expressions it replaces (bit-identical results).
 
 from __future__ import annotations
 
-import numba
-
 from .jit import jit
+from .threads import run_items
 from .layout import (OUT_CONVEXITY, OUT_DRAG_WORK, OUT_ENERGY_LOSS, OUT_NREJ, OUT_NREV, OUT_PATH,
                      OUT_STATUS, OUT_STEPS, OUT_T, OUT_V, OUT_WORK, OUT_WORK_ERROR, OUT_X,
                      OUT_XLIFT, OUT_XLIFT_PAPER)
@@ -24,15 +23,24 @@ from .layout import (OUT_CONVEXITY, OUT_DRAG_WORK, OUT_ENERGY_LOSS, OUT_NREJ, OU
 BLOCK = 8192
 
 
-@jit(parallel=True)
 def grid_columns(start, lengths, values, out):
     """Axis values of the flat C-order grid indices start .. start + n - 1:
     ``out[k, i] = values[k, index_k]`` where ``index_k`` is axis k's index of
     flat index ``start + i``; ``lengths[k]`` is axis k's length and
     ``values[k, :lengths[k]]`` its values (rows padded to the longest axis)."""
+    run_items(_grid_blocks, _blocks(out.shape[1]), start, lengths, values, out)
+
+
+def _blocks(n):
+    return (n + BLOCK - 1) // BLOCK
+
+
+@jit
+def _grid_blocks(first_block, stop_block, start, lengths, values, out):
+    """Blocks first_block .. stop_block - 1 of :func:`grid_columns`."""
     n_axes = lengths.size
     n = out.shape[1]
-    for block in numba.prange((n + BLOCK - 1) // BLOCK):
+    for block in range(first_block, stop_block):
         for i in range(block * BLOCK, min(n, (block + 1) * BLOCK)):
             _grid_point(start, i, n_axes, lengths, values, out)
 
@@ -46,30 +54,41 @@ def _grid_point(start, i, n_axes, lengths, values, out):
         rest //= lengths[k]
 
 
-@jit(parallel=True)
-def reduce_rows(raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, convexity_mean,
-                path_length_x, n_reversals, x_lift_off, x_lift_off_paper, steps, steps_rejected,
-                w_friction, w_energy, w_friction_error, w_drag, w_linear, w_excess, w_path,
-                energy_balance_error):
+def reduce_rows(raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, w_friction, w_energy, w_linear,
+                w_excess, w_path, energy_balance_error, convexity_mean, path_length_x, n_reversals,
+                x_lift_off, x_lift_off_paper, steps, steps_rejected, w_friction_error_estimate,
+                w_drag):
     """Fill the per-trajectory variables from the kernel's rows ``raw``
     (N_OUTPUTS, n) and the trajectories' x0, mu_k, g and mass.  A variable the
     run does not have is passed as an empty array and skipped.  Integer
     variables take the rows' values truncated, as numpy's casts do."""
+    run_items(_reduce_blocks, _blocks(raw.shape[1]), raw, x0, mu_k, g, mass, status, t_end, x_end,
+              v_end, w_friction, w_energy, w_linear, w_excess, w_path, energy_balance_error,
+              convexity_mean, path_length_x, n_reversals, x_lift_off, x_lift_off_paper, steps,
+              steps_rejected, w_friction_error_estimate, w_drag)
+
+
+@jit
+def _reduce_blocks(first_block, stop_block, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end,
+                   w_friction, w_energy, w_linear, w_excess, w_path, energy_balance_error,
+                   convexity_mean, path_length_x, n_reversals, x_lift_off, x_lift_off_paper, steps,
+                   steps_rejected, w_friction_error_estimate, w_drag):
+    """Blocks first_block .. stop_block - 1 of :func:`reduce_rows`."""
     with_drag = w_drag.size > 0
     n = raw.shape[1]
-    for block in numba.prange((n + BLOCK - 1) // BLOCK):
+    for block in range(first_block, stop_block):
         for i in range(block * BLOCK, min(n, (block + 1) * BLOCK)):
-            _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, convexity_mean,
+            _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, w_friction,
+                        w_energy, w_linear, w_excess, w_path, energy_balance_error, convexity_mean,
                         path_length_x, n_reversals, x_lift_off, x_lift_off_paper, steps,
-                        steps_rejected, w_friction, w_energy, w_friction_error, w_drag,
-                        w_linear, w_excess, w_path, energy_balance_error, with_drag)
+                        steps_rejected, w_friction_error_estimate, w_drag, with_drag)
 
 
 @jit(_nrt=False)
-def _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, convexity_mean,
-                path_length_x, n_reversals, x_lift_off, x_lift_off_paper, steps, steps_rejected,
-                w_friction, w_energy, w_friction_error, w_drag, w_linear, w_excess, w_path,
-                energy_balance_error, with_drag):
+def _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, w_friction, w_energy,
+                w_linear, w_excess, w_path, energy_balance_error, convexity_mean, path_length_x,
+                n_reversals, x_lift_off, x_lift_off_paper, steps, steps_rejected,
+                w_friction_error_estimate, w_drag, with_drag):
     """Trajectory i of :func:`reduce_rows`."""
     m = mass[i]
     status[i] = raw[OUT_STATUS, i]
@@ -85,8 +104,8 @@ def _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, convexit
         x_lift_off_paper[i] = raw[OUT_XLIFT_PAPER, i]
     if steps_rejected.size:
         steps_rejected[i] = raw[OUT_NREJ, i]
-    if w_friction_error.size:
-        w_friction_error[i] = m * raw[OUT_WORK_ERROR, i]
+    if w_friction_error_estimate.size:
+        w_friction_error_estimate[i] = m * raw[OUT_WORK_ERROR, i]
     friction = m * raw[OUT_WORK, i]
     w_friction[i] = friction
     w_energy[i] = m * raw[OUT_ENERGY_LOSS, i]

@@ -114,11 +114,25 @@ def _with_drag(a, v, fp, b, c, d):
     return fma(-kd, v, a), kd * (v * v) * fma(fp, fp, 1.0)
 
 
-#: method name -> (template, order)
+class FixedStepMethod(NamedTuple):
+    """A fixed-step method: its step template and what is known of its steps.
+
+    ``first_order``: a step uses the start's n and v, so its friction work
+    h q n v = h mu_k |n| |v| is >= 0, and a step that ends with d v > 0 moved
+    x in direction d (explicit Euler: x + h v; semi-implicit: x + h v_new).
+    ``linear_in_h``: x and v are linear in the step size (explicit Euler
+    without drag): events are located in closed form."""
+    step: Callable
+    order: int
+    first_order: bool = False
+    linear_in_h: bool = False
+
+
+#: fixed-step method name -> its method
 STEPPERS = {
-    "euler": (euler_step, 1),
-    "semi_implicit_euler": (semi_implicit_euler_step, 1),
-    "rk4": (rk4_step, 4),
+    "euler": FixedStepMethod(euler_step, 1, first_order=True, linear_in_h=True),
+    "semi_implicit_euler": FixedStepMethod(semi_implicit_euler_step, 1, first_order=True),
+    "rk4": FixedStepMethod(rk4_step, 4),
 }
 
 
@@ -299,6 +313,8 @@ class AdaptivePair(NamedTuple):
     pi_gains: tuple  # (alpha, beta) of the step-size controller
     helpers: tuple  # (global name, template) pairs the templates call
     error_norm2_drag: Callable  # the norm with the drag work as a fifth component
+    first_order = False  # (as FixedStepMethod's)
+    linear_in_h = False
 
 
 #: adaptive method name -> its pair
@@ -313,3 +329,6 @@ ADAPTIVE_STEPPERS = {
                             ("_dop853_stages", dop853._dop853_stages)),
                            error_norm2_two_estimates_drag),
 }
+
+#: every stepping method by name: fixed-step methods, then adaptive pairs
+METHODS = {**STEPPERS, **ADAPTIVE_STEPPERS}

@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from . import status as st
 from .jit import jit, specialise
+from .threads import TiledKernel
 from .layout import (OUT_DRAG_WORK, IN_G, IN_MUK, IN_MUS, IN_P0, IN_P1, IN_P2, IN_P3, IN_V0, IN_X0,
                      N_OUTPUTS, OUT_CONVEXITY, OUT_ENERGY_LOSS, OUT_NREJ, OUT_NREV, OUT_PATH,
                      OUT_STATUS, OUT_STEPS, OUT_T, OUT_V, OUT_WORK, OUT_WORK_ERROR, OUT_X,
@@ -177,12 +177,12 @@ def _solve_trajectory(j, inputs, settings, outputs, shared, trace):
     return count
 
 
-def _run_batch(inputs, settings, outputs, shared, tile_size):
-    """All trajectories, in parallel; ``tile_size`` only sets the grain."""
+def _run_tiles(first_tile, stop_tile, tile_size, inputs, settings, outputs, shared):
+    """Tiles first_tile .. stop_tile - 1 of the trajectories (see
+    ``threads.TiledKernel``)."""
     n = inputs.shape[1]
     no_trace = np.empty((4, 0))
-    n_tiles = (n + tile_size - 1) // tile_size
-    for tile in numba.prange(n_tiles):
+    for tile in range(first_tile, stop_tile):
         for j in range(tile * tile_size, min(n, (tile + 1) * tile_size)):
             solve_trajectory(j, inputs, settings, outputs, shared, no_trace)
 
@@ -194,16 +194,15 @@ def _trace_one(j, inputs, settings, shared, every, trace):
     return solve_trajectory(j, inputs, settings, outputs, shared, trace)
 
 
-def build_closed_form(ramp_height_fn, ramp_slope_curvature_fn, *, name: str,
-                      paper_criterion: bool = False, cache: bool = True):
-    """Compile (or load) the closed-form kernels for one straight-ramp scene;
-    the same ``(run_batch, trace_one)`` signatures as ``kernel.build_kernel``."""
-    variant = f"{name}_closed_form_{'paper' if paper_criterion else 'plain'}"
-    constants = {"ramp_height": ramp_height_fn, "ramp_slope_curvature": ramp_slope_curvature_fn,
-                 "PAPER_CRITERION": paper_criterion}
+def build_closed_form(variant, ramp_height_fn, ramp_slope_curvature_fn, *, cache: bool = True):
+    """Compile (or load) the closed-form kernels of a straight-ramp variant
+    (``KernelVariant`` with method ``closed_form``); the same
+    ``(run_batch, trace_one)`` signatures as ``kernel.build_kernel``."""
+    name = variant.name
+    constants = {**variant.constants(), "ramp_height": ramp_height_fn,
+                 "ramp_slope_curvature": ramp_slope_curvature_fn}
     constants["solve_trajectory"] = specialise(
-        _solve_trajectory, f"solve_trajectory_{variant}", constants, cache=cache)
-    run_batch = specialise(_run_batch, f"run_batch_{variant}", constants, cache=cache,
-                           parallel=True)
-    trace_one = specialise(_trace_one, f"trace_one_{variant}", constants, cache=cache)
+        _solve_trajectory, f"solve_trajectory_{name}", constants, cache=cache)
+    run_batch = TiledKernel(specialise(_run_tiles, f"run_tiles_{name}", constants, cache=cache))
+    trace_one = specialise(_trace_one, f"trace_one_{name}", constants, cache=cache)
     return run_batch, trace_one

@@ -1,0 +1,184 @@
+"""Planning a run: every value checked and the kernel variant chosen before any work starts.
+
+:func:`plan_run` turns a validated :class:`~rampwork.scene.Scene` and
+:class:`~rampwork.scene.Sweep` into a :class:`RunPlan`: the sweep's size and
+shape, and the :class:`~rampwork.core.variant.KernelVariant` the run needs
+(what the scene leaves out is left out of the compiled kernel).  Running it
+is :mod:`rampwork.runner`'s job.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import schema
+from .core.variant import CLOSED_FORM, KernelVariant
+from .errors import ConfigError
+from .scene import Scene, Sweep
+
+#: refuse sweeps whose results would not fit in this share of physical memory
+MEMORY_SHARE = 0.5
+#: bytes held per trajectory in memory: result variables plus a chunk's temporaries
+BYTES_PER_TRAJECTORY = 8 * len(schema.OUTPUTS) + 8
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """A validated run: the kernel variant it needs and how to build each
+    trajectory's parameters from the sweep."""
+
+    scene: Scene
+    sweep: Sweep
+    shape: tuple[int, ...]
+    size: int
+    variant: KernelVariant
+
+    @functools.cached_property
+    def axis_arrays(self) -> dict[str, np.ndarray]:
+        """The sweep's axes as arrays, converted once (not once a chunk)."""
+        return {name: np.asarray(values) for name, values in self.sweep.axes}
+
+    @functools.cached_property
+    def grid_lengths(self) -> np.ndarray:
+        """The grid's axis lengths, for :func:`core.reduce.grid_columns`."""
+        return np.array([len(array) for array in self.axis_arrays.values()], dtype=np.int64)
+
+    @functools.cached_property
+    def grid_values(self) -> np.ndarray:
+        """The grid's axes as rows padded to the longest (float64 axes only)."""
+        values = np.zeros((len(self.axis_arrays), int(self.grid_lengths.max(initial=1))))
+        for row, array in enumerate(self.axis_arrays.values()):
+            values[row, :len(array)] = array
+        return values
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return schema.output_names(self.variant.adaptive, self.scene.diagnostics, self.variant.drag)
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """What the run simulates, in words (for attributes and the CLI)."""
+        recording = ("trajectory recording",) if self.scene.record.enabled else ()
+        return self.variant.effects + recording
+
+
+# ------------------------------------------------------------------------------
+# validation and planning
+# ------------------------------------------------------------------------------
+def _physical_memory() -> int:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return 8 << 30
+
+
+def check_memory(plan: RunPlan) -> None:
+    """Refuse an in-memory run whose results would not fit (a file written
+    chunk by chunk, :func:`rampwork.run_to_file`, has no such limit)."""
+    memory = plan.size * BYTES_PER_TRAJECTORY
+    if memory > MEMORY_SHARE * _physical_memory():
+        raise ConfigError("sweep", f"{plan.size:,} trajectories need about {memory / 2**30:.1f} GiB for "
+                          f"their results, more than {MEMORY_SHARE:.0%} of this machine's "
+                          f"{_physical_memory() / 2**30:.1f} GiB; split the sweep, or write it to a file "
+                          "chunk by chunk (rampwork.run_to_file, or `rampwork run`)")
+
+
+def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
+    """Check everything about a run before any work starts (except the memory
+    an in-memory result needs: :func:`check_memory`)."""
+    if not isinstance(scene, Scene):
+        raise ConfigError("scene", f"expected a rampwork.Scene, got {type(scene).__name__}")
+    sweep = Sweep.single() if sweep is None else sweep
+    if not isinstance(sweep, Sweep):
+        raise ConfigError("sweep", f"expected a rampwork.Sweep, got {type(sweep).__name__}")
+    allowed = scene.axis_names
+    for name in sweep.names:
+        if name not in allowed:
+            raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
+    size = sweep.size
+    axes = dict(sweep.axes)
+    lo, hi = scene.ramp.domain
+    for k, index in enumerate(scene.record.indices or ()):
+        if index >= size:  # refused before the run, not after it
+            raise ConfigError(f"record.indices[{k}]", f"{index} is beyond the sweep's {size:,} "
+                              f"trajectories (flat indices 0 .. {size - 1:,})")
+
+    x0 = axes.get("x0")
+    if x0 is None:
+        if scene.x0 is None:
+            raise ConfigError("x0", "not given: set the scene's x0 or sweep over x0")
+        x0 = (scene.x0,)
+    x0 = np.asarray(x0)
+    outside = (x0 < lo) | (x0 > hi)
+    if outside.any():
+        where = "sweep.x0" if "x0" in axes else "x0"
+        raise ConfigError(where, f"{float(x0[outside][0])!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
+    for name in ("mu", "mu_k", "mu_s"):
+        if name in axes and min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
+    for name in ("drag_linear", "drag_quadratic"):
+        if name in axes and min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
+    for name in ("m", "g"):
+        if name in axes and min(axes[name]) <= 0:
+            raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
+    _check_static_friction(scene, sweep)
+
+    # ramp parameters: every combination that occurs must be a valid ramp
+    spec = scene.ramp.spec
+    base = scene.ramp.param_dict()
+    swept = [name for name in spec.parameter_names if name in axes]
+    if sweep.kind == "grid" and swept:
+        mesh = np.meshgrid(*[np.asarray(axes[name]) for name in swept], indexing="ij")
+        combos = {name: grid.ravel() for name, grid in zip(swept, mesh)}
+    else:
+        combos = {name: np.asarray(axes[name]) for name in swept}
+    values = {name: combos.get(name, np.array([base[name]])) for name in spec.parameter_names}
+    shared = scene.ramp.shared or None
+    spec.check_values(values, scene.ramp.domain, shared)
+    # n = g + v^2 f'' > 0 for all v where f'' >= 0: no lift-off or contact switch
+    sign = spec.curvature_sign(values, scene.ramp.domain, shared)
+    check_contact = not (sign is not None and sign >= 0)
+    # air drag is compiled in only where some trajectory of the run has it
+    drag_linear = bool(max(axes.get("drag_linear", (scene.drag.linear,))) > 0)
+    drag_quadratic = bool(max(axes.get("drag_quadratic", (scene.drag.quadratic,))) > 0)
+    # f'' == 0 everywhere: f' is constant, the motion has a closed form (without drag)
+    closed_form = (scene.integrator.closed_form and sign == 0
+                   and not (drag_linear or drag_quadratic))
+    mu_k = axes.get("mu", axes.get("mu_k", (scene.friction.mu_k,)))
+    paper_criterion = "x_lift_off_paper" in scene.diagnostics
+    if paper_criterion and (drag_linear or drag_quadratic):
+        raise ConfigError("diagnostics", "x_lift_off_paper (the paper's eq. 26) is defined for "
+                          "friction without air drag; remove the drag or the diagnostic")
+    variant = KernelVariant(
+        spec.key, CLOSED_FORM if closed_form else scene.integrator.method,
+        one_sided=scene.contact == "one_sided", check_contact=check_contact,
+        carry_slope=not spec.cheap_slope, friction=bool(max(mu_k) > 0.0),
+        drag_linear=drag_linear, drag_quadratic=drag_quadratic, paper_criterion=paper_criterion,
+        constant_curvature=spec.constant_curvature,
+        # g and the ramp's shape the same for every trajectory (not swept)
+        uniform_parameters=not any(name in sweep.names
+                                   for name in ("g",) + spec.parameter_names))
+    return RunPlan(scene, sweep, sweep.shape, size, variant)
+
+
+def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
+    axes = dict(sweep.axes)
+    if "mu" in axes:
+        return
+    mu_k = np.asarray(axes.get("mu_k", (scene.friction.mu_k,)))
+    mu_s = np.asarray(axes.get("mu_s", (scene.friction.mu_s,)))
+    if sweep.kind == "cases" and "mu_k" in axes and "mu_s" in axes:
+        bad = mu_s < mu_k
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError("sweep.mu_s", f"must be >= mu_k in every case; case {i} has "
+                              f"mu_s = {float(mu_s[i])!r} < mu_k = {float(mu_k[i])!r}")
+    elif mu_s.min() < mu_k.max():
+        raise ConfigError("sweep.mu_s" if "mu_s" in axes else "friction.mu_s",
+                          f"must be >= mu_k: mu_s = {float(mu_s.min())!r} < mu_k = {float(mu_k.max())!r}; "
+                          "sweep 'mu' to set both together")

@@ -1,0 +1,125 @@
+"""The general kernel (choices at run time) against the specialised kernels.
+
+A scene first runs on the general kernel of its kind, compiled once per
+machine; large runs hand over to the scene's specialised kernel.  Both are
+built from the same templates, so every trajectory must come out equal (to
+the sign of a zero: ``array_equal`` treats -0.0 == 0.0, as the pruning tests
+do) whatever tier ran it, on event-rich sweeps: stops, reversals, exits,
+lift-offs, contact switches, t_max and divergence, with and without drag.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rampwork as rw
+from rampwork import kernels, runner
+from rampwork.core import kernel as K
+from rampwork.core.status import DIVERGED, EXITED, LIFTED_OFF, STUCK, TIMEOUT
+
+FIXED = ("euler", "semi_implicit_euler", "rk4")
+ADAPTIVE = ("dopri5", "dop853")
+
+RAMPS = {
+    "quadratic": dict(curvature=-1.2, slope=0.2, domain=(-1.0, 1.0)),
+    "circular_bowl": dict(radius=1.0, domain=(-0.9, 0.9)),
+    "circular_dome": dict(radius=1.0, domain=(-0.9, 0.9)),
+    "sine": dict(slope=0.2, amplitude=0.15, wavenumber=6.0, domain=(-1.0, 1.0)),
+    "cycloid": dict(radius=0.5, domain=(-1.2, 1.2)),
+    "spline": dict(x_points=[-1.0, -0.3, 0.2, 1.0], y_points=[0.6, 0.0, 0.1, 0.5]),
+}
+
+
+def integrator(method, dt=1e-3):
+    return rw.Integrator(method, rtol=1e-7) if method in ADAPTIVE else rw.Integrator(method, dt)
+
+
+def event_rich(family, method, **changes):
+    scene = rw.Scene(ramp=rw.Ramp.create(family, **RAMPS[family]), friction=rw.Friction(0.1, 0.3),
+                     integrator=integrator(method), t_max=3.0)
+    scene = scene.replace(**changes)
+    lo, hi = scene.ramp.domain
+    rng = np.random.default_rng(5)
+    n = 96
+    sweep = rw.Sweep.cases(x0=rng.uniform(lo + 0.05 * (hi - lo), hi - 0.05 * (hi - lo), n),
+                           v0=rng.uniform(-3.0, 3.0, n), mu=rng.choice([0.0, 0.05, 0.3, 0.6], n))
+    return scene, sweep
+
+
+def both_tiers(scene, sweep):
+    """The dataset from the specialised and from the general kernel."""
+    return (rw.simulate(scene, sweep, kernel="specialised"),
+            rw.simulate(scene, sweep, kernel="general"))
+
+
+def assert_same(specialised, general):
+    assert specialised.attrs["kernel_tier"] == "specialised"
+    assert general.attrs["kernel_tier"] == "general"
+    for name in specialised.data_vars:
+        assert np.array_equal(specialised[name].values, general[name].values, equal_nan=True), name
+
+
+# each case compiles a specialised kernel: the dome in the default run, the
+# sine (and every other family, effect and method below) in the slow one
+@pytest.mark.parametrize("method", FIXED + ADAPTIVE)
+@pytest.mark.parametrize("family", ["circular_dome", pytest.param("sine", marks=pytest.mark.slow)])
+def test_general_equals_specialised(family, method):
+    scene, sweep = event_rich(family, method)
+    specialised, general = both_tiers(scene, sweep)
+    assert_same(specialised, general)
+    statuses = set(specialised.status.values.astype(int))
+    assert {STUCK, EXITED} <= statuses, statuses
+    assert LIFTED_OFF in statuses or TIMEOUT in statuses
+
+
+@pytest.mark.parametrize("family", [family if family in ("spline", "cycloid")
+                                    else pytest.param(family, marks=pytest.mark.slow)
+                                    for family in sorted(RAMPS)])
+def test_every_family_through_the_switch(family):
+    scene, sweep = event_rich(family, "rk4")
+    assert_same(*both_tiers(scene, sweep))
+
+
+@pytest.mark.parametrize("method", [pytest.param("euler", marks=pytest.mark.slow), "rk4",
+                                    pytest.param("dopri5", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("effects", [dict(contact="two_sided"), dict(drag=rw.Drag(linear=0.4)),
+                                     dict(drag=rw.Drag(quadratic=0.3)),
+                                     dict(drag=rw.Drag(linear=0.2, quadratic=0.2),
+                                          contact="two_sided"),
+                                     dict(diagnostics=("x_lift_off_paper",)),
+                                     dict(friction=rw.Friction(0.0))])
+def test_general_equals_specialised_with_effects(method, effects):
+    scene, sweep = event_rich("sine", method, **effects)
+    if "friction" in effects:  # mu = 0 everywhere: no friction branch in the specialised
+        sweep = rw.Sweep.cases(x0=sweep.values("x0"), v0=sweep.values("v0"))
+    assert_same(*both_tiers(scene, sweep))
+
+
+@pytest.mark.parametrize("method", ["euler", "dopri5"])
+def test_general_equals_specialised_where_steps_diverge(method):
+    """Steps far too large: divergence and the speed bound at block ends."""
+    scene, sweep = event_rich("circular_bowl", method)
+    scene = scene.replace(integrator=rw.Integrator(method, 0.2) if method == "euler"
+                          else rw.Integrator(method, rtol=1e-2, atol=1e-2))
+    specialised, general = both_tiers(scene, sweep)
+    assert_same(specialised, general)
+    if method == "euler":
+        assert DIVERGED in set(specialised.status.values.astype(int))
+
+
+def test_auto_picks_a_ready_general_kernel_until_the_specialised_one_is_cached(monkeypatch):
+    scene, sweep = event_rich("sine", "semi_implicit_euler", t_max=1.0)
+    plan = runner.plan_run(scene, sweep)
+    rw.simulate(scene, sweep, kernel="general")  # the general kernel is loaded
+    kernels._KERNELS.pop(plan.variant, None)
+    monkeypatch.setattr(kernels, "disk_cached", lambda kernel: False)
+    assert rw.simulate(scene, sweep).attrs["kernel_tier"] == "general"
+    monkeypatch.setattr(kernels, "disk_cached", lambda kernel: True)
+    assert rw.simulate(scene, sweep).attrs["kernel_tier"] == "specialised"
+
+
+def test_a_bad_tier_is_refused():
+    scene, sweep = event_rich("sine", "rk4")
+    with pytest.raises(rw.ConfigError, match="kernel"):
+        rw.simulate(scene, sweep, kernel="fast")
