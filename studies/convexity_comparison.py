@@ -13,7 +13,7 @@ This script runs the sweep, checks those claims numerically (and fails loudly if
 they do not hold or if a block does not slide all the way to B), writes a netCDF
 file and a three-panel figure, and prints the headline numbers.
 
-    python studies/convexity_comparison.py            # ~25 s cold (numba compile), ~6 s cached
+    python studies/convexity_comparison.py            # ~15 s cold (numba compile), ~3 s cached
     python studies/convexity_comparison.py --full --pdf
 
 Outputs (default folder studies/output/): convexity_comparison.nc and

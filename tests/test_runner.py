@@ -215,3 +215,23 @@ def test_kernel_variant_derives_its_facts_and_refuses_bad_knobs():
                            (dict(method="rk4", chains=3), "chains")):
         with pytest.raises(ValueError, match=message):
             KernelVariant("sine", **knobs)
+
+
+def test_each_output_comes_from_the_kernel_row_the_schema_names():
+    """schema.OUTPUTS says once which kernel row each variable is read from
+    (per unit mass where it is in J); core.reduce must follow it."""
+    from rampwork import runner
+    from rampwork.core import kernel as K
+
+    rng = np.random.default_rng(4)
+    n = 50
+    raw = rng.uniform(-5.0, 5.0, (K.N_OUTPUTS, n)).round(3)
+    inputs = rng.uniform(0.1, 2.0, (K.N_INPUTS, n))
+    mass = rng.uniform(0.5, 3.0, n)
+    out = runner.reduce_outputs(raw, inputs, mass)
+    with_row = [name for name, spec in schema.OUTPUTS.items() if spec.row is not None]
+    assert len(with_row) == 15 and {"W_linear", "W_excess", "W_path"}.isdisjoint(with_row)
+    for name in with_row:
+        spec = schema.OUTPUTS[name]
+        expected = raw[spec.row] * (mass if spec.units == "J" else 1.0)
+        np.testing.assert_array_equal(out[name], expected.astype(spec.np_dtype), err_msg=name)

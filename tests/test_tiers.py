@@ -109,6 +109,7 @@ def test_general_equals_specialised_where_steps_diverge(method):
 
 
 def test_auto_picks_a_ready_general_kernel_until_the_specialised_one_is_cached(monkeypatch):
+    monkeypatch.delenv("RAMPWORK_KERNEL", raising=False)  # (CI also runs with it set)
     scene, sweep = event_rich("sine", "semi_implicit_euler", t_max=1.0)
     plan = runner.plan_run(scene, sweep)
     rw.simulate(scene, sweep, kernel="general")  # the general kernel is loaded
@@ -123,3 +124,30 @@ def test_a_bad_tier_is_refused():
     scene, sweep = event_rich("sine", "rk4")
     with pytest.raises(rw.ConfigError, match="kernel"):
         rw.simulate(scene, sweep, kernel="fast")
+
+
+def test_a_long_run_hands_over_to_the_specialised_kernel(monkeypatch):
+    """A run that starts on the general kernel compiles its specialised kernel
+    in the background and takes it for the chunks after it is ready: the
+    dataset equals a run on the specialised kernel alone."""
+    monkeypatch.delenv("RAMPWORK_KERNEL", raising=False)
+    scene, sweep = event_rich("circular_dome", "rk4")
+    rng = np.random.default_rng(9)
+    lo, hi = scene.ramp.domain
+    sweep = rw.Sweep.cases(x0=rng.uniform(lo + 0.1, hi - 0.1, 3000), v0=rng.uniform(-3, 3, 3000),
+                           mu=rng.uniform(0.0, 0.5, 3000))
+    alone = rw.simulate(scene, sweep, kernel="specialised")
+    choose = kernels.choose_tier
+    monkeypatch.setattr(kernels, "choose_tier",  # start on the general kernel once
+                        lambda plan, kernel=None: "general" if kernel is None else choose(plan, kernel))
+    monkeypatch.setattr(runner, "GENERAL_CHUNK", 16)
+    monkeypatch.setattr(runner, "SPECIALISE_AFTER_S", 0.0)
+    handed = rw.simulate(scene, sweep)
+    assert handed.attrs["kernel_tier"] == "general, then specialised"
+    for name in alone.data_vars:
+        assert np.array_equal(alone[name].values, handed[name].values, equal_nan=True), name
+
+
+def test_a_short_or_forced_run_keeps_its_tier():
+    scene, sweep = event_rich("circular_dome", "rk4")
+    assert rw.simulate(scene, sweep, kernel="general").attrs["kernel_tier"] == "general"

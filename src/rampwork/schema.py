@@ -18,6 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from rampwork.core.layout import (OUT_CONVEXITY, OUT_DRAG_WORK, OUT_ENERGY_LOSS, OUT_NREJ,
+                                  OUT_NREV, OUT_PATH, OUT_STATUS, OUT_STEPS, OUT_T, OUT_V,
+                                  OUT_WORK, OUT_WORK_ERROR, OUT_X, OUT_XLIFT, OUT_XLIFT_PAPER)
 from rampwork.core.status import STATUS_TABLE
 from rampwork.errors import ConfigError
 
@@ -63,6 +66,10 @@ class VariableSpec:
     ``present`` says when a per-trajectory output is in a run's dataset:
     ``"always"``, ``"adaptive"`` (adaptive methods only), ``"diagnostic"``
     (when the scene asks for it) or ``"drag"`` (runs with air drag).
+    ``row`` is the kernel's output row (``core.layout.OUT_*``) it is read from,
+    per unit mass where its units are J; None for the variables
+    ``core.reduce`` derives from those (W_linear, W_excess, W_path,
+    energy_balance_error).
     """
 
     name: str
@@ -72,19 +79,20 @@ class VariableSpec:
     description: str
     fill_value: Any = None
     present: str = "always"
+    row: int | None = None
 
     @property
     def np_dtype(self) -> np.dtype:
         return np.dtype(self.dtype)
 
 
-def _f(name, units, long_name, description, dtype="float64", present="always"):
+def _f(name, units, long_name, description, dtype="float64", present="always", row=None):
     return VariableSpec(name, units, long_name, dtype, description, fill_value=_NAN,
-                        present=present)
+                        present=present, row=row)
 
 
-def _i(name, dtype, long_name, description, units="1"):
-    return VariableSpec(name, units, long_name, dtype, description, fill_value=None)
+def _i(name, dtype, long_name, description, units="1", row=None):
+    return VariableSpec(name, units, long_name, dtype, description, fill_value=None, row=row)
 
 
 # ----------------------------------------------------------------------------
@@ -105,26 +113,32 @@ _OUTPUT_LIST = (
         "int8",
         "trajectory end status",
         "how the trajectory ended; see flag_values, flag_meanings and flag_descriptions",
+        row=OUT_STATUS,
     ),
-    _f("t_end", "s", "time at the end of the trajectory", "time at which the trajectory ended"),
-    _f("x_end", "m", "horizontal position at the end", "x at the end of the trajectory"),
+    _f("t_end", "s", "time at the end of the trajectory", "time at which the trajectory ended",
+       row=OUT_T),
+    _f("x_end", "m", "horizontal position at the end", "x at the end of the trajectory",
+       row=OUT_X),
     _f(
         "v_end",
         "m s-1",
         "horizontal velocity at the end",
         "horizontal velocity dx/dt at the end of the trajectory",
+        row=OUT_V,
     ),
     _f(
         "W_friction",
         "J",
         "work against friction",
         "work done against friction integrated along the trajectory (paper eq. 13)",
+        row=OUT_WORK,
     ),
     _f(
         "W_energy",
         "J",
         "mechanical energy lost",
         "initial minus final mechanical energy, kinetic plus potential (paper eq. 19)",
+        row=OUT_ENERGY_LOSS,
     ),
     _f(
         "W_linear",
@@ -157,24 +171,28 @@ _OUTPUT_LIST = (
         "m-1",
         "mean ramp curvature term f'' over the path travelled",
         "integral of f''(x)|v| dt / integral of |v| dt; f''(x0) where nothing was travelled",
+        row=OUT_CONVEXITY,
     ),
     _f(
         "path_length_x",
         "m",
         "horizontal path length travelled",
         "integral of |v| dt: horizontal distance travelled including reversals",
+        row=OUT_PATH,
     ),
     _i(
         "n_reversals",
         "int32",
         "number of reversals of direction",
         "number of times the horizontal velocity changed sign",
+        row=OUT_NREV,
     ),
     _f(
         "x_lift_off",
         "m",
         "horizontal position of lift-off",
         "x where the normal force reached zero on a one-sided ramp; NaN where no lift-off happened",
+        row=OUT_XLIFT,
     ),
     _f(
         "x_lift_off_paper",
@@ -184,18 +202,21 @@ _OUTPUT_LIST = (
         "x_lift_off where d mu_k f' > 1 (sliding up a steep slope: it reports lift-off while the "
         "surface still pushes); NaN where it never held; only when the scene asks for it",
         present="diagnostic",
+        row=OUT_XLIFT_PAPER,
     ),
     _i(
         "steps",
         "int64",
         "integrator steps taken",
         "number of integrator steps taken, including partial event steps",
+        row=OUT_STEPS,
     ),
     _i(
         "steps_rejected",
         "int64",
         "integrator steps rejected",
         "number of step attempts rejected by the adaptive error control (0 for fixed steps)",
+        row=OUT_NREJ,
     ),
     _f(
         "W_friction_error_estimate",
@@ -204,6 +225,7 @@ _OUTPUT_LIST = (
         "sum over the accepted steps of the embedded pair's local error estimate of W_friction "
         "(adaptive methods only; compare energy_balance_error)",
         present="adaptive",
+        row=OUT_WORK_ERROR,
     ),
     _f(
         "W_drag",
@@ -213,6 +235,7 @@ _OUTPUT_LIST = (
         "(b s'^2 + c s'^3) dt, s' the speed along the path (runs with air drag only; "
         "energy_balance_error is then W_friction + W_drag - W_energy)",
         present="drag",
+        row=OUT_DRAG_WORK,
     ),
 )
 
