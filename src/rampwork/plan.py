@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import schema
+from .core import kernel as K
+from .core import reduce
 from .core.variant import CLOSED_FORM, KernelVariant
 from .errors import ConfigError
 from .scene import Scene, Sweep
@@ -182,3 +184,67 @@ def _check_static_friction(scene: Scene, sweep: Sweep) -> None:
         raise ConfigError("sweep.mu_s" if "mu_s" in axes else "friction.mu_s",
                           f"must be >= mu_k: mu_s = {float(mu_s.min())!r} < mu_k = {float(mu_k.max())!r}; "
                           "sweep 'mu' to set both together")
+
+
+# ------------------------------------------------------------------------------
+# per-trajectory parameters
+# ------------------------------------------------------------------------------
+def axis_values(plan: RunPlan, start: int, stop: int,
+                columns: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Each swept axis's value for the flat trajectories start..stop-1
+    (a grid's into the rows of ``columns`` when given)."""
+    if not plan.sweep.axes:
+        return {}
+    arrays = plan.axis_arrays
+    if plan.sweep.kind == "cases":
+        return {name: array[start:stop].copy() for name, array in arrays.items()}
+    if not all(array.dtype == np.float64 for array in arrays.values()):
+        index = np.unravel_index(np.arange(start, stop), plan.shape)
+        return {name: array[index[k]] for k, (name, array) in enumerate(arrays.items())}
+    if columns is None:
+        columns = np.empty((len(arrays), stop - start))
+    reduce.grid_columns(start, plan.grid_lengths, plan.grid_values, columns)
+    return dict(zip(arrays, columns))
+
+
+def chunk_inputs(plan: RunPlan, start: int, stop: int, out: np.ndarray | None = None,
+                 columns: np.ndarray | None = None) -> np.ndarray:
+    """The kernel's input rows (K.N_INPUTS, stop - start) for a flat range
+    (into ``out`` when given; ``columns``: scratch for a grid's axis values)."""
+    scene = plan.scene
+    n = stop - start
+    values = axis_values(plan, start, stop, columns)
+
+    def column(name, default):
+        return values[name] if name in values else default
+
+    inputs = np.empty((K.N_INPUTS, n)) if out is None else out
+    inputs[K.IN_X0] = column("x0", scene.x0)
+    inputs[K.IN_V0] = column("v0", scene.v0)
+    inputs[K.IN_G] = column("g", scene.g)
+    if "mu" in values:
+        inputs[K.IN_MUK] = values["mu"]
+        inputs[K.IN_MUS] = values["mu"]
+    else:
+        inputs[K.IN_MUK] = column("mu_k", scene.friction.mu_k)
+        inputs[K.IN_MUS] = column("mu_s", scene.friction.mu_s)
+    inputs[K.IN_DRAG_B] = column("drag_linear", scene.drag.linear)
+    inputs[K.IN_DRAG_C] = column("drag_quadratic", scene.drag.quadratic)
+    spec = scene.ramp.spec
+    rows = (K.IN_P0, K.IN_P1, K.IN_P2, K.IN_P3)
+    if not any(name in values for name in spec.parameter_names):
+        for row, value in zip(rows, scene.ramp.packed()):  # the scene's own shape throughout
+            inputs[row] = value
+        return inputs
+    base = scene.ramp.param_dict()
+    params = {name: values[name] if name in values else np.full(n, base[name])
+              for name in spec.parameter_names}
+    for row, packed in zip(rows, spec.pack(params, n)):
+        inputs[row] = packed
+    return inputs
+
+
+def trajectory_masses(plan: RunPlan, start: int, stop: int) -> np.ndarray:
+    if "m" not in plan.sweep.names:
+        return np.full(stop - start, plan.scene.m)
+    return axis_values(plan, start, stop)["m"]

@@ -25,7 +25,8 @@ from .core.jit import quick_codegen
 from .core.threads import max_threads, using_threads
 from .core.status import STATUS_NAMES
 from .errors import ConfigError
-from .plan import RunPlan, check_memory, plan_run
+from .plan import (RunPlan, axis_values, check_memory, chunk_inputs, plan_run,  # noqa: F401
+                   trajectory_masses)
 from .ramps import Ramp
 from .scene import Scene, Sweep
 
@@ -171,7 +172,7 @@ def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
     prepared.run_batch(inputs, prepared.settings, raw, prepared.shared, tile_size(n, threads))
     if out is None:
         out = empty_results(plan, n)
-    return reduce_outputs(raw, inputs, _masses(plan, start, stop), out=out)
+    return reduce_outputs(raw, inputs, trajectory_masses(plan, start, stop), out=out)
 
 
 
@@ -188,70 +189,6 @@ def _warm_up(run_batch, plan: RunPlan, settings: np.ndarray, shared: np.ndarray)
     run_batch(inputs, settings, raw, shared, 1)
     reduce_outputs(raw, inputs, np.ones(1), out=empty_results(plan, 1))
     return time.perf_counter() - started
-
-
-# ------------------------------------------------------------------------------
-# per-trajectory parameters
-# ------------------------------------------------------------------------------
-def axis_values(plan: RunPlan, start: int, stop: int,
-                columns: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Each swept axis's value for the flat trajectories start..stop-1
-    (a grid's into the rows of ``columns`` when given)."""
-    if not plan.sweep.axes:
-        return {}
-    arrays = plan.axis_arrays
-    if plan.sweep.kind == "cases":
-        return {name: array[start:stop].copy() for name, array in arrays.items()}
-    if not all(array.dtype == np.float64 for array in arrays.values()):
-        index = np.unravel_index(np.arange(start, stop), plan.shape)
-        return {name: array[index[k]] for k, (name, array) in enumerate(arrays.items())}
-    if columns is None:
-        columns = np.empty((len(arrays), stop - start))
-    reduce.grid_columns(start, plan.grid_lengths, plan.grid_values, columns)
-    return dict(zip(arrays, columns))
-
-
-def chunk_inputs(plan: RunPlan, start: int, stop: int, out: np.ndarray | None = None,
-                 columns: np.ndarray | None = None) -> np.ndarray:
-    """The kernel's input rows (K.N_INPUTS, stop - start) for a flat range
-    (into ``out`` when given; ``columns``: scratch for a grid's axis values)."""
-    scene = plan.scene
-    n = stop - start
-    values = axis_values(plan, start, stop, columns)
-
-    def column(name, default):
-        return values[name] if name in values else default
-
-    inputs = np.empty((K.N_INPUTS, n)) if out is None else out
-    inputs[K.IN_X0] = column("x0", scene.x0)
-    inputs[K.IN_V0] = column("v0", scene.v0)
-    inputs[K.IN_G] = column("g", scene.g)
-    if "mu" in values:
-        inputs[K.IN_MUK] = values["mu"]
-        inputs[K.IN_MUS] = values["mu"]
-    else:
-        inputs[K.IN_MUK] = column("mu_k", scene.friction.mu_k)
-        inputs[K.IN_MUS] = column("mu_s", scene.friction.mu_s)
-    inputs[K.IN_DRAG_B] = column("drag_linear", scene.drag.linear)
-    inputs[K.IN_DRAG_C] = column("drag_quadratic", scene.drag.quadratic)
-    spec = scene.ramp.spec
-    rows = (K.IN_P0, K.IN_P1, K.IN_P2, K.IN_P3)
-    if not any(name in values for name in spec.parameter_names):
-        for row, value in zip(rows, scene.ramp.packed()):  # the scene's own shape throughout
-            inputs[row] = value
-        return inputs
-    base = scene.ramp.param_dict()
-    params = {name: values[name] if name in values else np.full(n, base[name])
-              for name in spec.parameter_names}
-    for row, packed in zip(rows, spec.pack(params, n)):
-        inputs[row] = packed
-    return inputs
-
-
-def _masses(plan: RunPlan, start: int, stop: int) -> np.ndarray:
-    if "m" not in plan.sweep.names:
-        return np.full(stop - start, plan.scene.m)
-    return axis_values(plan, start, stop)["m"]
 
 
 # ------------------------------------------------------------------------------
@@ -412,7 +349,7 @@ def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
         inputs = chunk_inputs(plan, int(j), int(j) + 1)
         trace = np.full((4, record.max_samples), np.nan)
         lengths[k] = trace_one(0, inputs, settings, shared, record.every, trace)
-        mass = _masses(plan, int(j), int(j) + 1)[0]
+        mass = trajectory_masses(plan, int(j), int(j) + 1)[0]
         trace[3] *= mass
         samples[:, k, :] = trace
     samples = samples[:, :, :max(int(lengths.max()), 1)]  # no all-NaN tail
