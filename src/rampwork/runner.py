@@ -78,13 +78,15 @@ def prepare(plan: RunPlan, kernel: str | None = None) -> Prepared:
     tier = kernels.choose_tier(plan, kernel)
     variant = kernels.tier_variant(plan, tier)
     source = kernels.kernel_source(variant, plan)
-    if source == "compiled" and tier == "specialised":
-        kernels.start_warmup()  # the general kernels, once per machine, in the background
     (run_batch, trace_one), build_seconds = kernels.get_kernel(variant, plan)
     settings = np.concatenate([_settings(plan.scene), kernels.runtime_settings(plan)])
     shared = kernels.tier_shared(plan, tier)
     with _codegen(tier):
         compile_seconds = build_seconds + _warm_up(run_batch, plan, settings, shared)
+    if source == "compiled" and tier == "specialised":
+        # the general kernels, once per machine, in the background: started
+        # after this compilation, so that the two do not share the cores
+        kernels.start_warmup()
     return Prepared(plan, run_batch, trace_one, settings, shared, compile_seconds, source, tier)
 
 
