@@ -152,3 +152,27 @@ def test_a_long_run_hands_over_to_the_specialised_kernel(monkeypatch):
 def test_a_short_or_forced_run_keeps_its_tier():
     scene, sweep = event_rich("circular_dome", "rk4")
     assert rw.simulate(scene, sweep, kernel="general").attrs["kernel_tier"] == "general"
+
+
+def test_a_failed_background_compilation_loses_nothing(monkeypatch):
+    """The hand-over never costs the run: if the specialised kernel does not
+    compile, the general kernel finishes the run (with a warning)."""
+    monkeypatch.delenv("RAMPWORK_KERNEL", raising=False)
+    scene, sweep = event_rich("circular_dome", "rk4")
+    alone = rw.simulate(scene, sweep, kernel="specialised")
+    choose = kernels.choose_tier
+    monkeypatch.setattr(kernels, "choose_tier",
+                        lambda plan, kernel=None: "general" if kernel is None else choose(plan, kernel))
+    prepare = runner.prepare
+
+    def failing(plan, kernel=None):
+        if kernel == "specialised":
+            raise MemoryError("no room to compile")
+        return prepare(plan, kernel)
+
+    monkeypatch.setattr(runner, "prepare", failing)
+    monkeypatch.setattr(runner, "GENERAL_CHUNK", 8)
+    monkeypatch.setattr(runner, "SPECIALISE_AFTER_S", 0.0)
+    with pytest.warns(RuntimeWarning, match="did not compile"):
+        ds = rw.simulate(scene, sweep)
+    assert_same(alone, ds)

@@ -52,7 +52,8 @@ WARMUP_ENV = "RAMPWORK_WARMUP"
 GENERAL_FAMILIES = tuple(name for name, family in FAMILIES.items() if family.cacheable)
 #: the general kernels, one per kind (fixed steps; each adaptive pair)
 GENERAL_VARIANTS = (KernelVariant(ANY_FAMILY, ANY_FIXED_STEP, runtime=True),
-                    *(KernelVariant(ANY_FAMILY, method, runtime=True) for method in ADAPTIVE_STEPPERS))
+                    *(KernelVariant(ANY_FAMILY, method, runtime=True)
+                      for method in ADAPTIVE_STEPPERS))
 #: a background compilation older than this is taken for dead (its lock is ignored)
 WARMUP_STALE_S = 900
 

@@ -13,6 +13,7 @@ import concurrent.futures
 import contextlib
 import math
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -112,7 +113,12 @@ class _Handover:
 
     def current(self) -> Prepared:
         if self.compiling is not None and self.compiling.done():
-            self.prepared = self.compiling.result()  # a compilation error is raised here
+            error = self.compiling.exception()
+            if error is None:
+                self.prepared = self.compiling.result()
+            else:  # the general kernel goes on: the run loses nothing
+                warnings.warn(f"rampwork: the specialised kernel did not compile ({error!r}); "
+                              "the run goes on on the general kernel", RuntimeWarning, stacklevel=3)
             self.compiling = None
             self.may_specialise = False
         return self.prepared
