@@ -151,8 +151,8 @@ def _compile_notice(plan) -> None:
     print(f"compiling    {what}: about 5-15 s; later runs load it from {cache_location()}",
           flush=True)
     if tier == "specialised" and os.environ.get(WARMUP_ENV, "1") != "0" and missing_general():
-        print(f"             and, in the background, the general kernels (once per machine, "
-              f"about a minute on one core): then a new scene starts in about a second "
+        print(f"             and then, in the background, the general kernels (once per machine, "
+              f"about half a minute on one core): then a new scene starts in about a second "
               f"({WARMUP_ENV}=0 turns this off)", flush=True)
 
 
