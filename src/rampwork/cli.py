@@ -141,7 +141,7 @@ def _plan(path: str, scene, sweep):
 def _compile_notice(plan) -> None:
     """Say so before a kernel is compiled (seconds, where a cached one loads at once)."""
     from .core.jit import cache_location
-    from .kernels import WARMUP_ENV, choose_tier, kernel_source, missing_general, tier_variant
+    from .kernels import WARMUP_ENV, choose_tier, kernel_source, tier_variant, warmup_wanted
 
     tier = choose_tier(plan)
     if kernel_source(tier_variant(plan, tier), plan) != "compiled":
@@ -150,7 +150,7 @@ def _compile_notice(plan) -> None:
             if tier == "general" else "the kernel for this scene")
     print(f"compiling    {what}: about 5-15 s; later runs load it from {cache_location()}",
           flush=True)
-    if tier == "specialised" and os.environ.get(WARMUP_ENV, "1") != "0" and missing_general():
+    if tier == "specialised" and warmup_wanted():
         print(f"             and then, in the background, the general kernels (once per machine, "
               f"about half a minute on one core): then a new scene starts in about a second "
               f"({WARMUP_ENV}=0 turns this off)", flush=True)

@@ -158,13 +158,19 @@ def _warmup_lock() -> pathlib.Path:
     return pathlib.Path(tempfile.gettempdir()) / f"rampwork-warmup-{key}.lock"
 
 
+def warmup_wanted() -> bool:
+    """Whether the general kernels should be compiled in the background now:
+    some are missing and ``RAMPWORK_WARMUP`` is not "0"."""
+    return os.environ.get(WARMUP_ENV, "1") != "0" and bool(missing_general())
+
+
 def start_warmup() -> bool:
     """Compile the general kernels missing from the disk cache in a process of
     their own, in the background (once per machine and rampwork version):
     after it, a scene never run before starts in about a second.  Returns
     whether it started one (not where ``RAMPWORK_WARMUP=0``, where nothing is
     missing, or where one is running already)."""
-    if os.environ.get(WARMUP_ENV, "1") == "0" or not missing_general():
+    if not warmup_wanted():
         return False
     lock = _warmup_lock()
     try:

@@ -255,12 +255,12 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     or ``"specialised"`` (see :mod:`rampwork.kernels`; results are equal).
     """
     plan = plan_run(scene, sweep)
-    kernels.requested_tier(kernel)  # a bad tier is refused before any work
+    requested = kernels.requested_tier(kernel)  # a bad tier is refused before any work
     check_memory(plan)
     threads = thread_count(threads)
     prepared = prepare(plan, kernel)
     tiers = [prepared.tier]
-    handover = _Handover(plan, prepared, kernels.requested_tier(kernel) == "auto")
+    handover = _Handover(plan, prepared, requested == "auto")
 
     results = empty_results(plan, plan.size)
     started = time.perf_counter()
