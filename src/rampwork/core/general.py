@@ -143,7 +143,7 @@ def build_switches(families, *, cache: bool = True):
                          f"got {len(families)}")
     padded = families + families[:1] * (MAX_FAMILIES - len(families))
     name = "_".join(key for key, _, _ in families)
-    internal = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True, "_nrt": False}
+    internal = {"internal": True, "_nrt": False}
     switches = []
     for part, label in ((1, "height"), (2, "slope_curvature")):
         constants = {"SHARED_HEADER": SHARED_HEADER,

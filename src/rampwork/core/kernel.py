@@ -1051,13 +1051,13 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         constants[key] = specialise(function, f"{key}_{name}", constants, cache=cache, **options)
         return constants[key]
 
-    # Helpers are only called from jitted code: no Python or C wrappers (they
-    # would be generated, optimised and emitted for nothing).  The scalar
+    # Helpers are only called from jitted code: no Python or C wrappers, and
+    # no machine code of their own (jit.INTERNAL_OPTIONS).  The scalar
     # helpers allocate nothing, so they are compiled without numba's
     # reference counting: otherwise every call passing the lane array does
     # atomic incref/decref pairs, which cost more than the event arithmetic
     # itself (measured: 20-25 % of the whole run on an event-rich sweep).
-    internal = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+    internal = {"internal": True}
     no_refcount = {"_nrt": False, **internal}
     add("runtime_flags", general._copy_runtime_flags if variant.runtime
         else general._no_runtime_flags, **no_refcount)
