@@ -1,4 +1,4 @@
-"""DESIGN §4: hard cases every integrator must survive, one named test each,
+"""docs/physics.md §4: hard cases every integrator must survive, one named test each,
 for every integrator (euler, semi_implicit_euler, rk4 and the adaptive pairs
 dopri5 and dop853).
 

@@ -1,4 +1,4 @@
-"""Physics of the engine (DESIGN §1) against closed forms, conservation laws and
+"""Physics of the engine (docs/physics.md §1) against closed forms, conservation laws and
 the independent scipy reference solver (:mod:`rampwork.reference`).
 
 Nothing here compares the engine with its own earlier output: every expected
@@ -393,7 +393,7 @@ def test_two_sided_bead_passes_over_the_dome(reference):
 
 
 def test_contact_force_criterion_not_the_papers(reference):
-    """DESIGN §1: lift-off is n = g + v^2 f'' <= 0, not the paper's criterion
+    """docs/physics.md §1.3: lift-off is n = g + v^2 f'' <= 0, not the paper's criterion
     (26) (the ramp's vertical acceleration y'' <= -g), which differs when
     d mu_k f' > 1.  Sliding up a steep concave ramp with large friction, the
     paper's test fires at the start while the surface still pushes (n > 0):
@@ -494,7 +494,7 @@ def test_sticking_is_exact_and_does_not_creep(method):
 
 
 def test_hard_cases_against_the_reference(reference):
-    """DESIGN §4: starts on the domain's edges, and a long oscillation with
+    """docs/physics.md §4: starts on the domain's edges, and a long oscillation with
     many reversals that ends stuck (rest decisions >= 3e-3 from threshold)."""
     scene = bowl_scene(t_max=100.0)
     edges = rw.Sweep.cases(x0=[0.9, 0.9, -0.9, -0.9], v0=[1.0, -1.0, -1.0, 0.0])
@@ -521,7 +521,7 @@ def test_hard_cases_against_the_reference(reference):
 
 @pytest.mark.parametrize("method", ["euler", "semi_implicit_euler", "rk4"])
 def test_step_much_too_large_is_flagged_or_sane(method):
-    """DESIGN §4: with a step much too large, either status diverged, or
+    """docs/physics.md §4: with a step much too large, either status diverged, or
     finite outputs with W_f >= 0 and the mechanical energy not risen (friction
     acts: the start is at rest at x0 = 0.7, and nothing can climb past it)."""
     bad = []

@@ -1,6 +1,6 @@
 """An independent, high-accuracy reference solver (scipy), for tests and benchmarks.
 
-This module re-implements the physics of DESIGN §1 from scratch on top of
+This module re-implements the physics of docs/physics.md §1 from scratch on top of
 :func:`scipy.integrate.solve_ivp` (an adaptive embedded Runge-Kutta method,
 DOP853 by default) so that the jitted engine can be checked against something
 that shares none of its code: not ``rampwork.core.physics``, not the steppers,

@@ -247,7 +247,7 @@ def tile_size(n: int, threads: int) -> int:
 def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = None,
              progress=None, kernel: str | None = None) -> xr.Dataset:
     """Run ``scene`` over ``sweep`` (default: one trajectory) and return the
-    per-trajectory results as an ``xarray.Dataset`` (DESIGN §2).
+    per-trajectory results as an ``xarray.Dataset`` (docs/physics.md §2).
 
     ``threads``: worker threads (default: all of numba's).  ``progress``: an
     optional callable ``progress(done, total)`` called after each chunk.

@@ -798,7 +798,7 @@ def _paper_holds(lanes, i, x, shared):
 
 
 def _paper_scan(lanes, i, x_end, shared):
-    """A diagnostic beside the contact-force criterion (DESIGN §1): the first
+    """A diagnostic beside the contact-force criterion (docs/physics.md §1.3): the first
     x of the mode's path from PXM to ``x_end`` where eq. (26) holds, into XP
     unless it held before.  Because the condition depends on x alone within
     a mode, it is found by sampling f' along the path and bisecting on x, to

@@ -1,4 +1,4 @@
-"""Per-unit-mass physics of a particle on y = f(x) with Coulomb friction (DESIGN §1).
+"""Per-unit-mass physics of a particle on y = f(x) with Coulomb friction (docs/physics.md §1).
 
 State (x, v) with v = dx/dt.  Within a mode the direction ``d = sign(v)`` and
 the contact sign ``s_n = sign(n)`` are held fixed, and both enter only through
@@ -61,7 +61,7 @@ def specific_energy(f, fp, v, g):
 
 @jit
 def departure_direction(fp, mu_s, mu_k, g):
-    """The rest rule (DESIGN §1): at rest where the slope is f', the particle
+    """The rest rule (docs/physics.md §1.4): at rest where the slope is f', the particle
     stays for ever if |f'| <= mu_s (returns 0.0); otherwise it starts moving
     downhill, direction -sign(f').
 

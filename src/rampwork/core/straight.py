@@ -91,7 +91,7 @@ def _solve_trajectory(j, inputs, settings, outputs, shared, trace):
         count = 1
     status = st.DIVERGED  # unless a segment ends it (MAX_SEGMENTS is a guard)
     for _ in range(MAX_SEGMENTS):
-        if v == 0.0:  # the rest rule (DESIGN §1)
+        if v == 0.0:  # the rest rule (docs/physics.md §1.4)
             direction = departure_direction(slope, mu_s, mu_k, g)
             if direction == 0.0:
                 status = st.STUCK
