@@ -72,7 +72,8 @@ DESCRIPTIONS = {
                "force reaches zero; `two_sided`: a bead on a wire, held on both sides "
                "([physics §1.3](../physics.md#s1-3)).",
     "diagnostics": "Optional extra outputs. `x_lift_off_paper`: where the paper's lift-off "
-                   "criterion (eq. 26) first held, beside the contact-force `x_lift_off`.",
+                   "criterion (eq. 26) first held, beside the contact-force `x_lift_off` "
+                   "(not with air drag).",
     "ramp": "The ramp: `family`, its parameters and `domain` (required).",
     "friction": "Coulomb friction coefficients.",
     "drag": "Optional air drag along the path (not in the paper).",
@@ -552,7 +553,8 @@ class Reference:
                 for s in schema.TRAJECTORY_RECORD.values()]
         out.append(_table(["name", "units", "long_name", "comment"], rows))
         out.append("\nThey have the coordinates `traced_index` (the flat index of the trajectory "
-                   "in the sweep) and `traced_<axis>` for each swept axis.")
+                   "in the sweep), `trace_length` (the number of samples recorded) and "
+                   "`traced_<axis>` for each swept axis.")
         out.append(f"\nGlobal attribute `Conventions = \"{schema.CONVENTIONS}\"`.")
         return "\n".join(out) + "\n"
 
