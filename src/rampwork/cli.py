@@ -148,11 +148,11 @@ def _compile_notice(plan) -> None:
         return
     what = ("the general kernel for every scene of this kind (once per machine)"
             if tier == "general" else "the kernel for this scene")
-    print(f"compiling    {what}: about 5-15 s; later runs load it from {cache_location()}",
+    print(f"compiling    {what}: about 2-9 s; later runs load it from {cache_location()}",
           flush=True)
     if tier == "specialised" and warmup_wanted():
         print(f"             and then, in the background, the general kernels (once per machine, "
-              f"about half a minute on one core): then a new scene starts in about a second "
+              f"about 20 s on one core): then a new scene starts in about a second "
               f"({WARMUP_ENV}=0 turns this off)", flush=True)
 
 

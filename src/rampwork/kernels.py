@@ -4,7 +4,7 @@ Two tiers, built from the same templates, with equal results:
 
 * the **specialised** kernel of the plan's :class:`~rampwork.core.variant.KernelVariant`:
   every choice of the scene frozen at compile time; as fast as the hardware
-  allows, and one compilation (5-15 s) per variant;
+  allows, and one compilation (2-9 s) per variant;
 * the **general** kernel of the plan's kind (fixed steps, dopri5 or dop853):
   the ramp family, the fixed-step method and the effects read at run time
   (:mod:`rampwork.core.general`); compiled once per machine and then loaded

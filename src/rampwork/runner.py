@@ -94,7 +94,7 @@ def prepare(plan: RunPlan, kernel: str | None = None) -> Prepared:
 #: trajectories per chunk while the general kernel may hand over: the hand-over points
 GENERAL_CHUNK = 4096
 #: general-kernel seconds still to go above which the specialised kernel is
-#: compiled in the background (its compilation takes 5-15 s on 2 cores)
+#: compiled in the background (its compilation takes 2-9 s on 2 cores)
 SPECIALISE_AFTER_S = 2.0
 _COMPILER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="rampwork-compile")
 
