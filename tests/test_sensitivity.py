@@ -144,9 +144,11 @@ def test_rampwork_path_structure_units_and_attributes(bowl_run, tmp_path):
         assert low <= float(ds[name].min()) and float(ds[name].max()) <= high
         assert ds[name].attrs["units"] == schema.axis_spec(
             name, rw.FAMILIES["quadratic"].parameters).units
-    # the values analysed are simulate's own for the same cases
+    # the values analysed, and every other output, are simulate's own for the same cases
     direct = rw.simulate(bowl(), rw.Sweep.cases(**{n: ds[n].values for n in names}))
-    np.testing.assert_array_equal(direct["W_excess"].values, ds["W_excess"].values)
+    for name in ("W_excess", "W_friction", "x_end", "steps"):
+        np.testing.assert_array_equal(direct[name].values, ds[name].values)
+        assert ds[name].attrs["units"] == schema.OUTPUTS[name].units
     # a rampwork dataset: written and read back
     path = rw.write_netcdf(ds, tmp_path / "indices.nc")
     back = rw.open_dataset(path)

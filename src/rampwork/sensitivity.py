@@ -280,9 +280,10 @@ def sobol_indices(scene: Scene, output: str, ranges: Mapping, *, n: int = 1024, 
     (default ``stuck``, ``exited``) and its output is finite; any other
     raises :class:`SensitivityError` naming how many of each status, unless
     ``fill`` gives a value to put in their place.  ``keep_runs`` adds the
-    design, the output and the status along ``case``.  Ranges whose ends
-    the scene cannot run (x0 off the domain, an invalid ramp, ...) are refused
-    with a :class:`~rampwork.errors.ConfigError` before any run.
+    design and every per-trajectory variable of the run along ``case`` (as
+    simulate returns them: flagged values before any ``fill``).  Ranges
+    whose ends the scene cannot run (x0 off the domain, an invalid ramp, ...)
+    are refused with a :class:`~rampwork.errors.ConfigError` before any run.
     """
     if not isinstance(scene, Scene):
         raise ConfigError("scene", f"expected a rampwork.Scene, got {type(scene).__name__}")
@@ -348,9 +349,9 @@ def sobol_indices(scene: Scene, output: str, ranges: Mapping, *, n: int = 1024, 
                               keep_runs=keep_runs,
                               title=f"Sobol' indices of {output} ({spec.long_name}): {scene.title}")
     ds = runs["dataset"]
-    if keep_runs:
-        result["status"] = ("case", ds["status"].values, ds["status"].attrs)
-        result[output].attrs.update(long_name=spec.long_name, comment=spec.description)
+    if keep_runs:  # every per-trajectory variable of the run, as simulate gives it
+        result = result.drop_vars(output).assign({k: ("case", v.values, v.attrs)
+                                                  for k, v in ds.data_vars.items()})
     statuses = {STATUS_NAMES[int(c)]: int((ds["status"] == c).sum())
                 for c in np.unique(ds["status"].values)}
     result.attrs.update(schema.netcdf_attrs({
