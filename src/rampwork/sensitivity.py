@@ -1,32 +1,28 @@
 """Variance-based (Sobol') sensitivity indices of a study's outputs.
 
-Which of a design's axes drive an output, alone and through interactions?
-:func:`sobol_indices` answers for any per-trajectory output of a scene:
-rampwork draws the design from the axes' ranges, runs it as a
-:meth:`Sweep.cases <rampwork.Sweep.cases>` through :func:`rampwork.simulate`,
-checks every trajectory ended cleanly, and returns the indices as a small
-labelled dataset.  :func:`sobol_indices_of` runs any vectorised model through
-the same path (sample -> evaluate -> check -> analyse -> dataset);
-:mod:`rampwork.ishigami` is the textbook check, with analytic indices.
+:func:`sobol_indices` says which axes of a design drive a per-trajectory
+output of a scene, alone and through interactions: rampwork draws the design
+from the axes' ranges, runs it as one ``Sweep.cases`` through
+:func:`rampwork.simulate`, checks every trajectory ended cleanly and returns
+the indices as a small labelled dataset.  :func:`sobol_indices_of` runs any
+vectorised model through the same path (sample -> evaluate -> check ->
+analyse -> dataset); :mod:`rampwork.ishigami` is the check with known answers.
 
-The statistics are SALib's, not rampwork's: :func:`SALib.sample.sobol.sample`
-draws Saltelli's design on a scrambled, seeded Sobol' sequence (``n (D + 2)``
-rows for D axes, ``n (2 D + 2)`` with second-order indices), and
-:func:`SALib.analyze.sobol.analyze` estimates S1 and ST (Saltelli et al. 2010;
-Jansen's total-effect estimator) and S2 (Saltelli 2002).  Their confidence
-intervals come from SALib's bootstrap: ``*_conf`` is the half-width
-``z * std`` of ``num_resamples`` bootstrap estimates, ``z`` the normal
-quantile of ``conf_level`` (default 95 %).  Axes are uniform over their range,
-or log-uniform (``log=``); the indices refer to those distributions.
+The statistics are SALib's: :func:`SALib.sample.sobol.sample` draws Saltelli's
+design on a scrambled, seeded Sobol' sequence (``n (D + 2)`` rows for D axes,
+``n (2 D + 2)`` with second-order indices); :func:`SALib.analyze.sobol.analyze`
+estimates S1, ST (Saltelli et al. 2010; Jansen) and S2 (Saltelli 2002).
+``*_conf`` is the half-width ``z std`` of ``num_resamples`` bootstrap
+estimates, ``z`` the normal quantile of ``conf_level`` (default 95 %).  Axes
+are uniform over their range, or log-uniform (``log=``); the indices refer to
+those distributions.
 
 Saltelli's estimators need the output of every row of the design, so a
-trajectory that did not end cleanly cannot simply be left out.  By default a
-trajectory counts when it ended ``stuck`` or ``exited`` with a finite output;
-anything else (``lifted_off``, ``timeout``, ``diverged``, or a NaN output)
-raises :class:`SensitivityError` naming how many of each, before any index is
-estimated.  ``accept=`` widens the statuses that count; ``fill=`` replaces the
-flagged values by a number instead (recorded in the attributes; the indices
-are then those of the filled output).
+trajectory that did not end cleanly cannot be left out.  A trajectory counts
+when it ended ``stuck`` or ``exited`` (``accept=``) with a finite output;
+any other (``lifted_off``, ``timeout``, ``diverged``, a NaN output) raises
+:class:`SensitivityError` naming how many of each, before any estimate;
+``fill=`` puts a number in their place instead (recorded in the attributes).
 """
 
 from __future__ import annotations
@@ -128,6 +124,17 @@ def _scale(unit: np.ndarray, low, high, is_log) -> np.ndarray:
     return out
 
 
+def _salib():
+    """SALib's Sobol' sampler and estimator modules (an optional dependency)."""
+    try:
+        from SALib.analyze import sobol as estimator
+        from SALib.sample import sobol as sampler
+    except ImportError:
+        raise ModuleNotFoundError("Sobol' indices need SALib: pip install 'rampwork[sensitivity]'"
+                                  " (or SALib)") from None
+    return sampler, estimator
+
+
 def _bootstrap_seed(seed: int) -> int:
     """SALib's analyze takes ``seed=0`` for "unseeded": derive a non-zero one."""
     return int(np.random.SeedSequence([seed, 1]).generate_state(1)[0]) + 1
@@ -172,9 +179,7 @@ def sobol_indices_of(model: Callable[[dict[str, np.ndarray]], np.ndarray], range
         raise ConfigError("model", f"expected a function columns -> values, got {model!r}")
     parameter_units = dict(parameter_units or {})
 
-    from SALib.analyze import sobol as estimator
-    from SALib.sample import sobol as sampler
-
+    sampler, estimator = _salib()
     problem = {"num_vars": len(names), "names": list(names), "bounds": [[0.0, 1.0]] * len(names)}
     unit = sampler.sample(problem, n, calc_second_order=bool(second_order), scramble=True, seed=seed)
     design = _scale(unit, low, high, is_log)
