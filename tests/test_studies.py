@@ -6,7 +6,8 @@ readable rampwork netCDF file, a PNG and a PDF.  The physics assertions use
 closed forms (the paper's eq. 1 on the chord, sqrt(2 g (H - mu L))), the
 ordering claim of the paper, the first-order perturbation formula for a wave
 on the chord (its error must shrink as a^2), the analytic disagreement region
-of the two lift-off criteria, and scipy reference trajectories.
+of the two lift-off criteria, scipy reference trajectories, and the Ishigami
+function's analytic Sobol' indices.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from rampwork.cli import main
 
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
 STUDIES = ("exam_question", "excess_work_map", "sign_changing_convexity", "phase_portraits",
-           "liftoff_map")
+           "liftoff_map", "sensitivity_excess_work")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -192,6 +193,44 @@ def test_liftoff_map_disagreement_is_where_the_paper_predicts(outputs, reference
     assert abs(ref["W_friction"] - float(cell["W_friction"])) < 1e-7
 
 
+def test_sensitivity_study_checks_ishigami_then_explains_the_bowl(outputs):
+    module = outputs["sensitivity_excess_work"][0]
+    ds = dataset(outputs, "sensitivity_excess_work")
+    # the machinery's check ran first, and passed: estimates near the analytic indices
+    for key in ("S1", "ST"):
+        error = np.abs(ds[f"ishigami_{key}"] - ds[f"ishigami_{key}_exact"])
+        assert bool((error <= ds[f"ishigami_{key}_conf"] + module.ISHIGAMI_SLACK).all())
+    np.testing.assert_allclose(ds["ishigami_ST_exact"], [0.5576, 0.4424, 0.2437], atol=5e-5)
+    assert ds.attrs["ishigami_check"].startswith("passed")
+    # the bowl: every design row ran, inside its range, and every block came to rest
+    assert list(ds["parameter"].values) == list(module.RANGES)
+    assert ds.attrs["output"] == "W_excess" and ds.attrs["output_units"] == "J"
+    assert ds.sizes["case"] == ds.attrs["n_runs"] == 64 * (2 * 4 + 2)
+    assert bool((ds["status"] == 1).all())
+    for name, (low, high) in module.RANGES.items():
+        assert low <= float(ds[name].min()) and float(ds[name].max()) <= high
+    # on a bowl the friction work is the energy above the resting point: mu hardly matters
+    np.testing.assert_allclose(ds["W_friction"], module.energy_above_rest(ds), rtol=0, atol=1e-8)
+    assert float(ds["W_friction_ST"].sel(parameter="mu")) < module.MU_WF_MAX
+    assert float(ds["ST"].sel(parameter="mu")) > 0.1  # but it drives the excess, through W_linear
+    assert ds["S2"].dims == ("parameter", "parameter2")
+
+
+def test_sensitivity_study_refuses_when_the_machinery_misses_ishigami(tmp_path, monkeypatch):
+    import rampwork.sensitivity as sensitivity
+
+    module = study_module("sensitivity_excess_work")
+    right = sensitivity._scale
+    # a design drawn on half of each range: the Ishigami indices come out wrong
+    monkeypatch.setattr(sensitivity, "_scale",
+                        lambda unit, low, high, is_log: right(unit / 2, low, high, is_log))
+    monkeypatch.setattr(sensitivity, "simulate", None)  # rampwork must not run
+    with pytest.raises(SystemExit) as stop:
+        module.main(["--smoke", "--out", str(tmp_path)])
+    assert "misses the Ishigami function's analytic indices" in str(stop.value)
+    assert not list(tmp_path.iterdir())
+
+
 # ----------------------------------------------------------------------------
 # rampwork plot
 # ----------------------------------------------------------------------------
@@ -205,7 +244,8 @@ def one_line_error(capsys) -> str:
 
 @pytest.mark.parametrize("name, kind", [("exam_question", "auto"), ("excess_work_map", "map"),
                                         ("phase_portraits", "auto"), ("phase_portraits", "traces"),
-                                        ("liftoff_map", "status")])
+                                        ("liftoff_map", "status"),
+                                        ("sensitivity_excess_work", "auto")])
 def test_plot_writes_a_png(outputs, tmp_path, capsys, name, kind):
     figure = tmp_path / f"{name}-{kind}.png"
     nc = outputs[name][1] / f"{name}.nc"

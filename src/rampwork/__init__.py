@@ -19,6 +19,7 @@ from .io import open_dataset, write_netcdf
 from .ramps import FAMILIES, Ramp
 from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
 from .runner import simulate
+from .sensitivity import sobol_indices
 from .streaming import run_to_file
 
 __all__ = [
@@ -36,5 +37,6 @@ __all__ = [
     "open_dataset",
     "run_to_file",
     "simulate",
+    "sobol_indices",
     "write_netcdf",
 ]
