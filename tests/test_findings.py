@@ -1,0 +1,101 @@
+"""Issue 18's findings on paths that lose or refuse work badly and on a
+newcomer's friction: each test failed before its fix.
+
+None of these compiles a kernel: settings objects, plans, the command line's
+checks and ``Ramp.evaluate`` run without one (the SIGTERM test is in
+test_streaming.py, beside the kill test whose kernel it shares; the traced
+coordinates' units in test_physics.py; the studies' PDF in test_studies.py).
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import os
+import re
+import shlex
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rampwork as rw
+from rampwork import cli, io, plan, runner, streaming
+from rampwork.cli import main
+from rampwork.errors import ConfigError
+from rampwork.scenefile import load_scene, parse_scene
+
+
+def example(tmp_path, name="straight", file="scene.toml") -> Path:
+    path = tmp_path / file
+    path.write_text(cli.example_text(name), encoding="utf-8")
+    return path
+
+
+def one_line(capsys, kind="error") -> str:
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"rampwork: {kind}: "), err
+    assert "usage:" not in err and "Traceback" not in err
+    return lines[0]
+
+
+@pytest.fixture
+def no_runs(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("nothing may run")
+
+    monkeypatch.setattr(streaming.SweepToFile, "run", refuse)
+    monkeypatch.setattr(runner, "simulate", refuse)
+
+
+# ------------------------------------------------------------------------------
+# dt = 1e300, or dt > t_max, passed `rampwork check` and diverged every trajectory
+# ------------------------------------------------------------------------------
+def _straight_scene(**kwargs):
+    return rw.Scene(ramp=rw.Ramp.create("straight", slope=-0.5, domain=(0.0, 2.0)), x0=0.0, **kwargs)
+
+
+@pytest.mark.parametrize("integrator, t_max", [
+    (rw.Integrator("rk4", dt=1e300), 60.0),
+    (rw.Integrator("euler", dt=20.0), 10.0),
+    (rw.Integrator("rk4", dt=10.0), 10.0),
+    (rw.Integrator("dopri5", dt=1e300), 60.0),  # the adaptive pairs' first step
+    (rw.Integrator("dop853", dt=11.0, dt_max=20.0), 10.0),
+])
+def test_a_step_not_shorter_than_t_max_is_refused(integrator, t_max):
+    with pytest.raises(ConfigError, match=r"^integrator\.dt: .*shorter than t_max") as error:
+        _straight_scene(integrator=integrator, t_max=t_max)
+    assert repr(t_max) in str(error.value)
+
+
+def test_steps_shorter_than_t_max_and_a_large_dt_max_are_accepted():
+    _straight_scene(integrator=rw.Integrator("euler", dt=9.0), t_max=10.0)
+    _straight_scene(integrator=rw.Integrator("dopri5", dt_max=1e300), t_max=10.0)  # a bound only
+
+
+def test_check_refuses_dt_beyond_t_max(tmp_path, capsys, no_runs):
+    scene = example(tmp_path)
+    for value in ("1e300", "10.0", "11.0"):  # the example's t_max is 10 s
+        assert main(["check", str(scene), "--set", f"integrator.dt={value}"]) == 2
+        line = one_line(capsys)
+        assert "integrator.dt" in line and "t_max" in line
+
+
+# ------------------------------------------------------------------------------
+# Scene(x0=10) outside the domain was accepted until simulate
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize("x0", [10.0, -0.001, 2.0000001])
+def test_a_start_outside_the_domain_is_refused_when_the_scene_is_built(x0):
+    with pytest.raises(ConfigError, match=r"^x0: .* is outside the ramp's domain \[0\.0, 2\.0\]"):
+        rw.Scene(ramp=rw.Ramp.create("straight", slope=-0.5, domain=(0.0, 2.0)), x0=x0)
+
+
+def test_a_start_on_the_domain_ends_is_accepted():
+    ramp = rw.Ramp.create("straight", slope=-0.5, domain=(0.0, 2.0))
+    assert rw.Scene(ramp=ramp, x0=0.0).x0 == 0.0 and rw.Scene(ramp=ramp, x0=2.0).x0 == 2.0
