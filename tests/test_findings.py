@@ -88,6 +88,51 @@ def test_check_refuses_dt_beyond_t_max(tmp_path, capsys, no_runs):
 
 
 # ------------------------------------------------------------------------------
+# rw.write_netcdf({'a': 1}, path) raised a raw AttributeError
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize("data", [{"a": 1}, None, xr.DataArray([1.0])])
+def test_write_netcdf_refuses_what_is_not_a_dataset(tmp_path, data):
+    with pytest.raises(ConfigError, match=r"expected an xarray\.Dataset made by rampwork"):
+        rw.write_netcdf(data, tmp_path / "out.nc")
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------
+# -o /proc/x.nc: "not writable: No such file or directory"
+# ------------------------------------------------------------------------------
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs Linux /proc")
+def test_a_folder_that_takes_no_new_files_says_so():
+    with pytest.raises(ConfigError) as error:
+        io.check_writable("/proc/x.nc")
+    message = str(error.value)
+    assert message.startswith("/proc/x.nc: cannot create a file in directory '/proc'")
+    assert "does not allow new files" in message and "No such file" not in message
+
+
+@pytest.mark.parametrize("code, words", [(errno.EROFS, "read-only file system"),
+                                         (errno.EACCES, "not writable (permission denied)"),
+                                         (errno.ENOSPC, "no space left")])
+def test_why_no_file_can_be_created(tmp_path, monkeypatch, code, words):
+    def refuse(*args, **kwargs):
+        raise OSError(code, os.strerror(code))
+
+    monkeypatch.setattr(io.tempfile, "mkstemp", refuse)
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        io.check_writable(tmp_path / "out.nc")
+
+
+def test_a_folder_without_write_permission_says_permission_denied(tmp_path, monkeypatch):
+    monkeypatch.setattr(io.os, "access", lambda *args, **kwargs: False)
+    with pytest.raises(ConfigError, match=r"is not writable \(permission denied\)"):
+        io.check_writable(tmp_path / "out.nc")
+
+
+def test_a_missing_folder_says_it_does_not_exist(tmp_path):
+    with pytest.raises(ConfigError, match=r"directory .*missing' does not exist"):
+        io.check_writable(tmp_path / "missing" / "out.nc")
+
+
+# ------------------------------------------------------------------------------
 # Scene(x0=10) outside the domain was accepted until simulate
 # ------------------------------------------------------------------------------
 @pytest.mark.parametrize("x0", [10.0, -0.001, 2.0000001])
