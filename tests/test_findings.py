@@ -55,6 +55,29 @@ def no_runs(monkeypatch):
 
 
 # ------------------------------------------------------------------------------
+# `rampwork run s.toml -o s.toml --overwrite` replaced the scene with the results
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize("spelling", ["same", "dotted", "symlink"])
+def test_output_that_is_the_scene_file_is_refused(tmp_path, capsys, monkeypatch, no_runs, spelling):
+    scene = example(tmp_path)
+    before = scene.read_bytes()
+    monkeypatch.chdir(tmp_path)
+    output = {"same": "scene.toml", "dotted": "./scene.toml", "symlink": "link.toml"}[spelling]
+    if spelling == "symlink":
+        (tmp_path / "link.toml").symlink_to(scene)
+    assert main(["run", "scene.toml", "-o", output, "--overwrite"]) == 2
+    line = one_line(capsys)
+    assert "is the scene file" in line and output in line
+    assert scene.read_bytes() == before
+
+
+def test_a_directory_as_output_is_refused(tmp_path, capsys, no_runs):
+    scene = example(tmp_path)
+    assert main(["run", str(scene), "-o", str(tmp_path), "--overwrite"]) == 2
+    assert "is a directory" in one_line(capsys)
+
+
+# ------------------------------------------------------------------------------
 # dt = 1e300, or dt > t_max, passed `rampwork check` and diverged every trajectory
 # ------------------------------------------------------------------------------
 def _straight_scene(**kwargs):
@@ -85,6 +108,19 @@ def test_check_refuses_dt_beyond_t_max(tmp_path, capsys, no_runs):
         assert main(["check", str(scene), "--set", f"integrator.dt={value}"]) == 2
         line = one_line(capsys)
         assert "integrator.dt" in line and "t_max" in line
+
+
+# ------------------------------------------------------------------------------
+# --threads 0 and --chunk-size 0 printed argparse's usage block
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize("option, value", [("--threads", "0"), ("--chunk-size", "0"),
+                                           ("--threads", "-2"), ("--chunk-size", "many")])
+def test_bad_integer_options_are_one_line_errors(tmp_path, capsys, no_runs, option, value):
+    scene = example(tmp_path)
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.nc"), option, value]) == 2
+    line = one_line(capsys)
+    assert line == f"rampwork: error: {option}: expected a positive integer, got {value!r}"
+    assert not (tmp_path / "out.nc").exists()
 
 
 # ------------------------------------------------------------------------------
@@ -144,3 +180,77 @@ def test_a_start_outside_the_domain_is_refused_when_the_scene_is_built(x0):
 def test_a_start_on_the_domain_ends_is_accepted():
     ramp = rw.Ramp.create("straight", slope=-0.5, domain=(0.0, 2.0))
     assert rw.Scene(ramp=ramp, x0=0.0).x0 == 0.0 and rw.Scene(ramp=ramp, x0=2.0).x0 == 2.0
+
+
+# ------------------------------------------------------------------------------
+# `rampwork` is not on the PATH after the quick start: the help shows a command that works
+# ------------------------------------------------------------------------------
+def test_command_name_is_what_can_be_typed(monkeypatch):
+    monkeypatch.setattr(cli.shutil, "which", lambda name: None)
+    assert cli.command_name(".venv/bin/rampwork") == ".venv/bin/rampwork"
+    assert cli.command_name("rampwork") == "./rampwork"
+    python = os.path.relpath(sys.executable)
+    expected = python if not python.startswith("..") else sys.executable
+    assert cli.command_name("/x/rampwork/__main__.py") == f"{expected} -m rampwork"
+    monkeypatch.setattr(cli.shutil, "which", lambda name: {"rampwork": os.path.abspath(".venv/bin/rampwork"),
+                                                           "python": sys.executable}.get(name))
+    assert cli.command_name(".venv/bin/rampwork") == "rampwork"
+    assert cli.command_name("/x/rampwork/__main__.py") == "python -m rampwork"
+
+
+def _environment_without_rampwork() -> dict:
+    env = dict(os.environ)
+    folders = [folder for folder in env.get("PATH", "").split(os.pathsep)
+               if folder and not (Path(folder) / "rampwork").exists()]
+    env["PATH"] = os.pathsep.join(folders)
+    # this rampwork, from any folder (a relative PYTHONPATH=src would not reach it)
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(rw.__file__).resolve().parents[1])]
+                                        + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    return env
+
+
+def test_the_help_shows_commands_that_work_without_rampwork_on_the_path(tmp_path):
+    env = _environment_without_rampwork()
+    shown = subprocess.run([sys.executable, "-m", "rampwork", "--help"], capture_output=True, text=True,
+                           env=env, cwd=tmp_path, timeout=120)
+    assert shown.returncode == 0, shown.stderr
+    examples = shown.stdout.split("examples:")[1].splitlines()
+    command = next(line for line in examples if "list the example scenes" in line)
+    command = command.split("  list the example scenes")[0].strip()
+    assert command.endswith(" example") and not command.startswith("rampwork ")
+    ran = subprocess.run(shlex.split(command), capture_output=True, text=True, env=env, cwd=tmp_path,
+                         timeout=120)
+    assert ran.returncode == 0, ran.stderr
+    assert "bowl_reversals" in ran.stdout
+    assert f"`{command} NAME > scene.toml`" in ran.stdout  # its own hint, the same command
+    usage = subprocess.run(shlex.split(command.removesuffix(" example")) + ["run", "--help"],
+                           capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert usage.stdout.startswith(f"usage: {command.removesuffix(' example')} run")
+
+
+# ------------------------------------------------------------------------------
+# CLI errors used the API's wording ("pass overwrite=True")
+# ------------------------------------------------------------------------------
+def test_an_existing_output_is_named_in_each_front_ends_words(tmp_path, capsys, no_runs):
+    scene = example(tmp_path)
+    output = tmp_path / "out.nc"
+    output.write_bytes(b"results")
+    assert main(["run", str(scene), "-o", str(output)]) == 2
+    line = one_line(capsys)
+    assert "pass --overwrite" in line and "overwrite=True" not in line and "CLI" not in line
+    with pytest.raises(ConfigError) as error:
+        rw.write_netcdf(xr.Dataset(), output)
+    assert "pass overwrite=True" in str(error.value) and "--overwrite" not in str(error.value)
+
+
+def test_an_unfinished_run_is_named_in_each_front_ends_words(tmp_path, capsys, no_runs):
+    scene = example(tmp_path)
+    output = tmp_path / "out.nc"
+    streaming.partial_path(output).write_bytes(b"an unfinished run")
+    assert main(["run", str(scene), "-o", str(output)]) == 2
+    line = one_line(capsys)
+    assert "pass --resume" in line and "--overwrite" in line and "=True" not in line
+    with pytest.raises(ConfigError) as error:
+        rw.run_to_file(*load_scene(scene), output)
+    message = str(error.value)
+    assert "resume=True" in message and "overwrite=True" in message and "--" not in message

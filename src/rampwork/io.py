@@ -19,7 +19,7 @@ import numpy as np
 import xarray as xr
 
 from rampwork import schema
-from rampwork.errors import ConfigError
+from rampwork.errors import ConfigError, option
 
 __all__ = ["write_netcdf", "open_dataset", "check_writable", "temp_path", "define_variables",
            "set_attributes", "replace_file", "CHUNK_BYTES"]
@@ -60,7 +60,7 @@ def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
     if path.is_dir():
         raise ConfigError(where, "is a directory")
     if path.exists() and not overwrite:
-        raise ConfigError(where, "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+        raise ConfigError(where, f"exists; pass {option('overwrite')} to replace it")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ConfigError(where, f"directory {str(parent)!r} is not writable (permission denied)")
     try:
@@ -220,7 +220,7 @@ def replace_file(source: Path, path: Path, overwrite: bool) -> None:
     replace a ``path`` that appeared meanwhile unless ``overwrite``."""
     fsync_file(source)
     if not overwrite and path.exists():  # appeared while we were writing
-        raise ConfigError(str(path), "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+        raise ConfigError(str(path), f"exists; pass {option('overwrite')} to replace it")
     os.replace(source, path)
     _fsync_dir(path.parent)
 
