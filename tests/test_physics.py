@@ -560,6 +560,16 @@ def test_bitwise_identical_whatever_the_thread_count():
 # ------------------------------------------------------------------------------
 # recorded trajectories
 # ------------------------------------------------------------------------------
+def test_traced_coordinates_carry_their_axes_units():
+    """traced_<axis>, the swept values of each recorded trajectory, have the
+    units of the axis (schema.py, the registry), like the axis itself."""
+    ds = run(straight_scene(record=rw.Record(indices=(1,), every=7)),
+             _cases([STRAIGHT_CASES[1], STRAIGHT_CASES[2], STRAIGHT_CASES[0]]))
+    for name, units in (("x0", "m"), ("v0", "m s-1"), ("slope", "1"), ("mu_k", "1"), ("mu_s", "1")):
+        assert ds[f"traced_{name}"].attrs["units"] == ds[name].attrs["units"] == units, name
+        assert ds[f"traced_{name}"].attrs["long_name"].endswith("of the traced trajectory")
+
+
 def test_recorded_trace_starts_and_ends_on_the_trajectory():
     slope, x0, v0, mu_k, mu_s = STRAIGHT_CASES[2]
     scene = straight_scene(record=rw.Record(indices=(1,), every=7))

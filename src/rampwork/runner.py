@@ -370,7 +370,7 @@ def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
     traced_values = [axis_values(plan, int(j), int(j) + 1) for j in indices]
     for name in plan.sweep.names:
         coords[f"traced_{name}"] = (dims[0], np.array([values[name][0] for values in traced_values]),
-                                    {"long_name": f"{name} of the traced trajectory"})
+                                    schema.traced_attrs(name, plan.scene.ramp.spec.parameters))
     return xr.Dataset(data_vars, coords=coords)
 
 
