@@ -26,7 +26,7 @@ import xarray as xr
 import rampwork as rw
 from rampwork import cli, io, plan, runner, streaming
 from rampwork.cli import main
-from rampwork.errors import ConfigError
+from rampwork.errors import ConfigError, RenamedParameterWarning
 from rampwork.scenefile import load_scene, parse_scene
 
 
@@ -254,3 +254,81 @@ def test_an_unfinished_run_is_named_in_each_front_ends_words(tmp_path, capsys, n
         rw.run_to_file(*load_scene(scene), output)
     message = str(error.value)
     assert "resume=True" in message and "overwrite=True" in message and "--" not in message
+
+
+# ------------------------------------------------------------------------------
+# sine's slope was the downhill slope; the bowl's bottom sat at -R by default
+# ------------------------------------------------------------------------------
+def test_sine_mean_slope_is_dy_dx_like_straight_and_quadratic():
+    x = np.array([0.0, 1.0, 2.0])
+    sine = rw.Ramp.create("sine", mean_slope=0.3, amplitude=0.0, wavenumber=1.0, domain=(0.0, 2.0))
+    straight = rw.Ramp.create("straight", slope=0.3, domain=(0.0, 2.0))
+    quadratic = rw.Ramp.create("quadratic", slope=0.3, curvature=0.0, domain=(0.0, 2.0))
+    for ramp in (sine, straight, quadratic):
+        f, fp, _ = ramp.evaluate(x)
+        assert f.tolist() == [0.0, 0.3, 0.6] and fp.tolist() == [0.3, 0.3, 0.3], ramp.family
+    assert rw.FAMILIES["sine"].parameter_names[0] == "mean_slope"
+
+
+def test_sine_old_slope_reads_as_minus_mean_slope_with_a_warning():
+    with pytest.warns(RenamedParameterWarning, match=r"ramp\.slope: .*downhill slope.*now 'mean_slope'"
+                                                     r".*read as mean_slope = -0\.3"):
+        old = rw.Ramp.create("sine", slope=0.3, amplitude=0.1, wavenumber=2.0, domain=(0.0, 2.0))
+    new = rw.Ramp.create("sine", mean_slope=-0.3, amplitude=0.1, wavenumber=2.0, domain=(0.0, 2.0))
+    assert old == new
+    with pytest.raises(ConfigError, match=r"ramp\.slope: .*give mean_slope alone"):
+        rw.Ramp.create("sine", slope=0.3, mean_slope=-0.3, amplitude=0.1, wavenumber=2.0,
+                       domain=(0.0, 2.0))
+
+
+OLD_SINE_FILE = """\
+x0 = 0.0
+[ramp]
+family = "sine"
+slope = 0.3
+amplitude = 0.03
+wavenumber = 5.0
+domain = [0.0, 4.0]
+"""
+
+
+def test_an_old_sine_scene_file_still_runs_with_a_warning(tmp_path, capsys):
+    with pytest.warns(RenamedParameterWarning):
+        scene, _ = parse_scene(OLD_SINE_FILE)
+    assert scene.ramp.param_dict()["mean_slope"] == -0.3
+    path = tmp_path / "old.toml"
+    path.write_text(OLD_SINE_FILE, encoding="utf-8")
+    assert main(["check", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert "OK" in out and "mean_slope = -0.3" in out
+    assert err.startswith("rampwork: warning: ramp.slope: the sine family's 'slope' was the downhill")
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_a_sweep_over_the_old_names_says_what_changed(tmp_path):
+    text = OLD_SINE_FILE.replace("slope = 0.3\n", "") + "[sweep.axes]\nslope = [0.1, 0.2]\n"
+    with pytest.raises(ConfigError, match=r"sweep\.axes\.slope: the sine family's 'slope' was the "
+                                          r"downhill slope.*now 'mean_slope' \(mean_slope = -slope"):
+        parse_scene(text)
+    scene = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=1.0, domain=(-0.9, 0.9)), x0=0.0)
+    with pytest.raises(ConfigError, match=r"sweep\.y_centre: .*now 'y_bottom' \(y_bottom = "
+                                          r"y_centre - radius"):
+        plan.plan_run(scene, rw.Sweep.grid(y_centre=[0.0, 1.0]))
+
+
+def test_the_bowl_stands_on_y_equals_zero_by_default():
+    ramp = rw.Ramp.create("circular_bowl", radius=2.0, x_centre=0.5, domain=(-1.0, 1.5))
+    f, fp, _ = ramp.evaluate([0.5, -1.0])
+    assert f[0] == 0.0 and fp[0] == 0.0 and f[1] == pytest.approx(2.0 - math.sqrt(4.0 - 2.25), rel=1e-15)
+    lifted = rw.Ramp.create("circular_bowl", radius=2.0, x_centre=0.5, y_bottom=1.0, domain=(-1.0, 1.5))
+    assert lifted.evaluate([0.5])[0][0] == 1.0
+
+
+def test_the_bowl_old_y_centre_reads_as_y_bottom_with_a_warning():
+    with pytest.warns(RenamedParameterWarning, match=r"ramp\.y_centre: .*height of the circle's "
+                                                     r"centre.*read as y_bottom = -1\.5"):
+        old = rw.Ramp.create("circular_bowl", radius=2.0, y_centre=0.5, domain=(-1.0, 1.0))
+    assert old == rw.Ramp.create("circular_bowl", radius=2.0, y_bottom=-1.5, domain=(-1.0, 1.0))
+    # the dome keeps its centre, whose default puts the dome on y = 0
+    dome = rw.Ramp.create("circular_dome", radius=2.0, domain=(-1.0, 1.0))
+    assert dome.param_dict()["y_centre"] == 0.0

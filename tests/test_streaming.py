@@ -221,7 +221,6 @@ t_max = 30.0
 [ramp]
 family = "circular_bowl"
 radius = 1.0
-y_centre = 1.0
 domain = [-0.95, 0.95]
 [friction]
 mu_k = 0.05

@@ -114,8 +114,8 @@ def test_excess_work_sign_and_reference(outputs, reference):
     for kappa in (-0.3, 0.3):
         xc, yc, radius = module.arc_centre(kappa)
         family = "circular_bowl" if kappa > 0 else "circular_dome"
-        ramp = rw.Ramp.create(family, radius=radius, x_centre=xc, y_centre=yc,
-                              domain=(0.0, module.L))
+        height = {"y_bottom": yc - radius} if family == "circular_bowl" else {"y_centre": yc}
+        ramp = rw.Ramp.create(family, radius=radius, x_centre=xc, **height, domain=(0.0, module.L))
         assert abs(ramp.evaluate([0.0])[0][0]) < 1e-12
         assert abs(ramp.evaluate([module.L])[0][0] + module.H) < 1e-12
         scene = rw.Scene(ramp=ramp, friction=rw.Friction(mu), x0=0.0, v0=v0, m=module.M,
@@ -136,7 +136,7 @@ def test_sign_changing_first_order_and_equal_cost(outputs):
                                                                                    method="nearest"))
     # the deviation from the first-order formula is O(a^2): halving a quarters it
     scene = rw.Scene(ramp=rw.Ramp.create("sine", amplitude=0.0, wavenumber=module.K,
-                                         slope=module.SLOPE, domain=(0.0, module.L)),
+                                         mean_slope=-module.SLOPE, domain=(0.0, module.L)),
                      x0=0.0, v0=module.V0, m=module.M, g=module.G)
     amplitudes = np.array([0.02, 0.01, 0.005])
     run = rw.simulate(scene, rw.Sweep.grid(amplitude=amplitudes, phase=[0.0, 1.0], mu=[0.2]))

@@ -23,6 +23,11 @@ class ConfigError(ValueError):
         return type(self), (self.where, self.problem)
 
 
+class RenamedParameterWarning(FutureWarning):
+    """A scene used a parameter under its old name or meaning; it was read
+    as the new one (the warning says how), and will be refused later."""
+
+
 #: the front end that called rampwork: "python" (the API) or "cli"
 _FRONT_END = contextvars.ContextVar("rampwork_front_end", default="python")
 FRONT_ENDS = ("python", "cli")

@@ -100,6 +100,8 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     allowed = scene.axis_names
     for name in sweep.names:
         if name not in allowed:
+            if name in scene.ramp.spec.renamed:  # a parameter's old name
+                raise scene.ramp.spec.unknown_parameter(f"sweep.{name}", name, allowed)
             raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
     size = sweep.size
     axes = dict(sweep.axes)
