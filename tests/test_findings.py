@@ -332,3 +332,29 @@ def test_the_bowl_old_y_centre_reads_as_y_bottom_with_a_warning():
     # the dome keeps its centre, whose default puts the dome on y = 0
     dome = rw.Ramp.create("circular_dome", radius=2.0, domain=(-1.0, 1.0))
     assert dome.param_dict()["y_centre"] == 0.0
+
+
+# ------------------------------------------------------------------------------
+# Ramp.from_functions' self-check refused exact derivatives near steep ends
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize("edge", [0.99, 0.9999, 1.0 - 1e-7])
+def test_exact_derivatives_near_a_vertical_tangent_pass_the_check(edge):
+    ramp = rw.Ramp.from_functions(lambda x: -math.sqrt(1.0 - x * x),
+                                  lambda x: x / math.sqrt(1.0 - x * x),
+                                  lambda x: 1.0 / (1.0 - x * x) ** 1.5,
+                                  domain=(-edge, edge), curvature_sign=1)
+    assert ramp.curvature_sign() == 1
+
+
+def test_exact_derivatives_near_a_singular_curvature_pass_the_check():
+    rw.Ramp.from_functions(lambda x: x**1.5, lambda x: 1.5 * x**0.5, lambda x: 0.75 / x**0.5,
+                           domain=(1e-6, 1.0))
+
+
+def test_wrong_derivatives_are_still_refused_and_the_error_says_how_to_skip():
+    with pytest.raises(ConfigError, match=r"ramp\.fp: does not match .*pass check=False"):
+        rw.Ramp.from_functions(lambda x: math.sin(x), lambda x: 1.001 * math.cos(x), lambda x: -math.sin(x),
+                               domain=(0.0, 3.0))
+    rw.Ramp.from_functions(lambda x: math.sin(x), lambda x: 1.001 * math.cos(x), lambda x: -math.sin(x),
+                           domain=(0.0, 3.0), check=False)
+    assert "check=False" in rw.Ramp.from_functions.__doc__
