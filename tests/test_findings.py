@@ -26,7 +26,7 @@ import xarray as xr
 import rampwork as rw
 from rampwork import cli, io, plan, runner, streaming
 from rampwork.cli import main
-from rampwork.errors import ConfigError, RenamedParameterWarning
+from rampwork.errors import ClosedFormNotice, ConfigError, RenamedParameterWarning
 from rampwork.scenefile import load_scene, parse_scene
 
 
@@ -358,3 +358,41 @@ def test_wrong_derivatives_are_still_refused_and_the_error_says_how_to_skip():
     rw.Ramp.from_functions(lambda x: math.sin(x), lambda x: 1.001 * math.cos(x), lambda x: -math.sin(x),
                            domain=(0.0, 3.0), check=False)
     assert "check=False" in rw.Ramp.from_functions.__doc__
+
+
+# ------------------------------------------------------------------------------
+# straight ramps ignored the requested integrator silently
+# ------------------------------------------------------------------------------
+def _notices(integrator):
+    scene = _straight_scene(integrator=integrator)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run = plan.plan_run(scene, rw.Sweep.grid(mu=[0.1, 0.2]))
+    attrs = runner.attributes(run, 0.0, 0.0, 1, 0)
+    return [w for w in caught if issubclass(w.category, ClosedFormNotice)], attrs
+
+
+def test_a_straight_ramp_says_its_integrator_is_not_used():
+    notices, attrs = _notices(rw.Integrator("euler", dt=1e-2))
+    assert len(notices) == 1
+    assert re.search(r"closed form .*\(euler, dt = 0\.01 s\) is not used; "
+                     r"Integrator\(\.\.\., closed_form=False\) steps", str(notices[0].message))
+    assert attrs["integrator_used"] == "closed_form" and attrs["integrator_method"] == "euler"
+    assert "closed form" in attrs["history"] and "euler not used" in attrs["history"]
+    notices, attrs = _notices(rw.Integrator())  # nothing asked for: nothing to say
+    assert notices == [] and attrs["integrator_used"] == "closed_form"
+    notices, attrs = _notices(rw.Integrator("euler", dt=1e-2, closed_form=False))
+    assert notices == [] and attrs["integrator_used"] == "euler"
+    for doc in (rw.simulate.__doc__, rw.Ramp.create.__doc__):
+        assert "closed form" in doc and "closed_form=False" in doc
+
+
+def test_the_cli_says_so_where_it_describes_the_integrator(tmp_path, capsys):
+    scene = example(tmp_path)
+    assert main(["check", str(scene), "--set", "integrator.method=euler"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""  # no warning besides: the summary says it
+    line = next(line for line in out.splitlines() if line.startswith("integrator"))
+    assert line.startswith("integrator    euler, dt = 0.001 s (not used: a straight ramp is solved in "
+                           "closed form; closed_form = false under [integrator] steps with it)")
+    assert "Integrator(" not in out and "steps per trajectory" not in line

@@ -23,7 +23,7 @@ from importlib import resources
 from pathlib import Path
 
 from ._version import __version__
-from .errors import ConfigError, front_end
+from .errors import ClosedFormNotice, ConfigError, front_end, option
 
 EXIT_OK = 0
 EXIT_ERROR = 2
@@ -216,6 +216,16 @@ def _compile_notice(plan) -> None:
               f"({WARMUP_ENV}=0 turns this off)", flush=True)
 
 
+def _integration(plan) -> str:
+    """The integrator in words, and that a straight ramp does not use it (the
+    CLI says so here, in its summary, instead of a ClosedFormNotice)."""
+    text = plan.scene.integrator.describe()
+    if plan.variant.closed_form:
+        text += (f" (not used: a straight ramp is solved in closed form; {option('closed_form')} "
+                 "steps with it)")
+    return text
+
+
 def _warn_shadowed(overrides, sweep) -> None:
     """--set of a value that a sweep axis replaces has no effect: say so."""
     names = set(sweep.names)
@@ -332,7 +342,7 @@ def cmd_run(args) -> int:
         raise _run_error(args, error) from None
     if not args.quiet:
         print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
-              f"{scene.integrator.describe()}", flush=True)
+              f"{_integration(plan)}", flush=True)
         if job.resuming:
             print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
                   flush=True)
@@ -378,7 +388,7 @@ def cmd_check(args) -> int:
     ramp = scene.ramp
     params = ", ".join(f"{k} = {v!r}" for k, v in ramp.params)
     integrator = scene.integrator
-    steps = ("" if integrator.adaptive else
+    steps = ("" if integrator.adaptive or plan.variant.closed_form else
              f" (at most {scene.t_max / integrator.dt:,.0f} steps per trajectory)")
     print(f"{args.scene}: OK")
     print(f"title         {scene.title}")
@@ -389,7 +399,7 @@ def cmd_check(args) -> int:
     if scene.drag.enabled:
         print(f"drag          linear = {scene.drag.linear!r} s-1, "
               f"quadratic = {scene.drag.quadratic!r} m-1")
-    print(f"integrator    {integrator.describe()}, t_max = {scene.t_max!r} s{steps}")
+    print(f"integrator    {_integration(plan)}, t_max = {scene.t_max!r} s{steps}")
     dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
     print(f"sweep         {_sweep_shape(sweep)}; {dims}")
     print(f"trajectories  {plan.size:,}")
@@ -554,6 +564,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with front_end("cli"), warnings.catch_warnings():
             warnings.showwarning = _show_warning
+            # said in the summary instead, where `check` and `run` describe the integrator
+            warnings.simplefilter("ignore", ClosedFormNotice)
             return _main(argv)
     finally:
         if previous is not None:

@@ -28,6 +28,11 @@ class RenamedParameterWarning(FutureWarning):
     as the new one (the warning says how), and will be refused later."""
 
 
+class ClosedFormNotice(UserWarning):
+    """A straight ramp was solved in closed form, not with the integrator the
+    scene asked for (shown once a process per integrator)."""
+
+
 #: the front end that called rampwork: "python" (the API) or "cli"
 _FRONT_END = contextvars.ContextVar("rampwork_front_end", default="python")
 FRONT_ENDS = ("python", "cli")
@@ -39,6 +44,7 @@ _OPTIONS = {
     "chunk_size": ("chunk_size", "--chunk-size"),
     "threads": ("threads", "--threads"),
     "scheduler": ("scheduler", "--scheduler"),
+    "closed_form": ("Integrator(..., closed_form=False)", "closed_form = false under [integrator]"),
 }
 
 

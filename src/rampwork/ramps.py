@@ -488,7 +488,12 @@ class Ramp:
     def create(cls, family: str, domain=None, **params) -> "Ramp":
         """A validated ramp of a registered family.  ``params``: the family's
         parameters by name (defaults fill the rest); for ``"spline"``,
-        ``x_points`` and ``y_points`` (``domain`` defaults to their range)."""
+        ``x_points`` and ``y_points`` (``domain`` defaults to their range).
+
+        A ``"straight"`` ramp (or a ``"quadratic"`` of curvature 0) is solved
+        in closed form by :func:`rampwork.simulate`, exactly and without
+        steps, whatever the scene's integrator; ``Integrator(...,
+        closed_form=False)`` steps it with the integrator instead."""
         if family == CALLABLE:
             raise ConfigError("ramp.family", "callable ramps are built with Ramp.from_functions(f, fp, fpp, ...)")
         if not isinstance(family, str) or family not in FAMILIES:
