@@ -19,6 +19,9 @@ excess against the measured mean convexity for all three families.
 
     python studies/excess_work_map.py            # ~10 s with compiled kernels cached
     python studies/excess_work_map.py --full --gallery
+
+Outputs (default folder studies/output/): excess_work_map.nc and
+excess_work_map.png (and .pdf with --pdf).
 """
 
 from __future__ import annotations

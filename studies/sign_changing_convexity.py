@@ -19,6 +19,9 @@ equal cost by interpolation.
 
     python studies/sign_changing_convexity.py            # ~10 s with compiled kernels cached
     python studies/sign_changing_convexity.py --full --gallery
+
+Outputs (default folder studies/output/): sign_changing_convexity.nc and
+sign_changing_convexity.png (and .pdf with --pdf).
 """
 
 from __future__ import annotations

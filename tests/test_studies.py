@@ -2,7 +2,7 @@
 
 Each study runs once per session in-process on tiny grids (the kernels are
 the studies' own few variants, cached on disk by numba) and must write a
-readable rampwork netCDF file, a PNG and a PDF.  The physics assertions use
+readable rampwork netCDF file, a PNG and, with --pdf, a PDF.  The physics assertions use
 closed forms (the paper's eq. 1 on the chord, sqrt(2 g (H - mu L))), the
 ordering claim of the paper, the first-order perturbation formula for a wave
 on the chord (its error must shrink as a^2), the analytic disagreement region
@@ -12,6 +12,7 @@ of the two lift-off criteria, and scipy reference trajectories.
 from __future__ import annotations
 
 import importlib
+import re
 import sys
 from pathlib import Path
 
@@ -41,7 +42,7 @@ def outputs(tmp_path_factory):
     for name in STUDIES:
         folder = tmp_path_factory.mktemp(name)
         module = study_module(name)
-        assert module.main(["--smoke", "--out", str(folder)]) == 0
+        assert module.main(["--smoke", "--out", str(folder), "--pdf"]) == 0
         runs[name] = (module, folder)
     return runs
 
@@ -74,6 +75,25 @@ def test_gallery_option_copies_the_png(outputs, tmp_path, monkeypatch):
     assert (tmp_path / "tiny.png").read_bytes() == (tmp_path / "out" / "tiny.png").read_bytes()
     assert rw.open_dataset(tmp_path / "out" / "tiny.nc").sizes == \
         dataset(outputs, "phase_portraits").sizes
+
+
+def test_a_pdf_only_with_the_pdf_option(tmp_path):
+    """Every study writes NAME.nc and NAME.png, and NAME.pdf only with --pdf,
+    as each one's docstring says (convexity_comparison.py included)."""
+    from rampwork.plotting import new_figure
+
+    _study = study_module("_study")
+
+    for options, pdf in (([], False), (["--pdf"], True)):
+        args = _study.parser("A study.").parse_args(["--out", str(tmp_path / str(pdf))] + options)
+        fig, axes = new_figure()
+        axes[0, 0].plot([0, 1], [0, 1])
+        _study.finish("tiny", xr.Dataset(), fig, args, 0.0)
+        assert (tmp_path / str(pdf) / "tiny.png").exists()
+        assert (tmp_path / str(pdf) / "tiny.pdf").exists() == pdf
+    for path in STUDIES_DIR.glob("*.py"):
+        doc = study_module(path.stem).__doc__
+        assert re.search(r"\.pdf[^.]* with (``)?--pdf", " ".join(doc.split())), path.name
 
 
 def test_exam_question_closed_forms_and_ordering(outputs):
