@@ -95,7 +95,7 @@ SCENES = (
               {"x0": (-0.9, 0.5), "v0": (-2.5, 2.5), "mu": ((0.1, 0.35), (0.65, 0.9))},
               what="y = -0.5 x on (-1, 1) m; launched up or down the slope: sticks (mu > 0.5) or exits"),
     SceneSpec("bowl", "(b) convex circular bowl", "circular_bowl",
-              {"radius": 1.0, "x_centre": 0.0, "y_centre": 1.0}, (-0.95, 0.95), "one_sided",
+              {"radius": 1.0, "x_centre": 0.0, "y_bottom": 0.0}, (-0.95, 0.95), "one_sided",
               {"x0": (0.6, 0.9), "v0": (-0.5, 0.5), "mu": (0.04, 0.12)},
               what="radius 1 m on (-0.95, 0.95) m, start high, slow, small mu: swings, ends stuck"),
     SceneSpec("dome", "(c) concave circular dome", "circular_dome",
@@ -104,7 +104,7 @@ SCENES = (
               what="radius 1 m on (-0.95, 0.95) m, start near the top with some speed: lifts off "
                    "(one-sided contact) or sticks near the top"),
     SceneSpec("sine", "(d) sine ramp, convexity changes sign", "sine",
-              {"slope": 0.2, "amplitude": 0.05, "wavenumber": 2.0 * math.pi, "phase": 0.0},
+              {"mean_slope": -0.2, "amplitude": 0.05, "wavenumber": 2.0 * math.pi, "phase": 0.0},
               (-2.0, 2.0), "one_sided",
               {"x0": (-1.8, -1.2), "v0": (0.0, 1.5), "mu": (0.05, 0.35)},
               what="y = -0.2 x + 0.05 sin(2 pi x) on (-2, 2) m (f'' up to +-2 /m): sticks in a dip, "

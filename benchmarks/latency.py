@@ -117,10 +117,10 @@ T_MAX = 10.0
 FAMILY_SCENES = {
     "straight": {"params": {"slope": -0.5, "height": 1.0}, "domain": [0.0, 2.0], "x0": 0.0},
     "quadratic": {"params": {"curvature": 1.0}, "domain": [-1.0, 1.0], "x0": -0.9},
-    "circular_bowl": {"params": {"radius": 1.0, "y_centre": 1.0}, "domain": [-0.95, 0.95], "x0": -0.85},
+    "circular_bowl": {"params": {"radius": 1.0, "y_bottom": 0.0}, "domain": [-0.95, 0.95], "x0": -0.85},
     "circular_dome": {"params": {"radius": 1.0}, "domain": [-0.9, 0.9], "x0": -0.3},
     "cycloid": {"params": {"radius": 0.5}, "domain": [-1.5, 1.5], "x0": -1.4},
-    "sine": {"params": {"slope": 0.3, "amplitude": 0.03, "wavenumber": 5.0, "phase": math.pi},
+    "sine": {"params": {"mean_slope": -0.3, "amplitude": 0.03, "wavenumber": 5.0, "phase": math.pi},
              "domain": [0.0, 4.0], "x0": 0.0},
     "spline": {"params": {"x_points": [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0],
                           "y_points": [1.0, 0.62, 0.38, 0.25, 0.2, 0.12, 0.0]},

@@ -1,8 +1,9 @@
 """What every study script shares: its options, provenance and where outputs go.
 
-Each study runs as ``python studies/NAME.py [--smoke | --full] [--out DIR] [--gallery]``
-and writes NAME.nc, NAME.png and NAME.pdf into the output folder (default
-studies/output/, gitignored); ``--gallery`` also copies the PNG into
+Each study runs as ``python studies/NAME.py [--smoke | --full] [--out DIR] [--pdf] [--gallery]``
+and writes NAME.nc and NAME.png into the output folder (default
+studies/output/, gitignored), and NAME.pdf with ``--pdf`` (as
+convexity_comparison.py does); ``--gallery`` also copies the PNG into
 studies/gallery/ (committed, shown in the README).
 """
 
@@ -28,6 +29,7 @@ def parser(doc: str) -> argparse.ArgumentParser:
                       help="tiny grids: checks that the study runs (tests)")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT,
                    help="output folder (default: studies/output; created if missing)")
+    p.add_argument("--pdf", action="store_true", help="also write the figure as PDF")
     p.add_argument("--gallery", action="store_true",
                    help="also copy the PNG into studies/gallery/ (the README's figures)")
     return p
@@ -59,13 +61,14 @@ def note_history(ds, study: str, what: str) -> None:
 
 
 def finish(study: str, ds, fig, args, started: float) -> list[Path]:
-    """Write the dataset and the figure, print where and how long it took."""
+    """Write the dataset and the figure (PNG; PDF too with --pdf), print
+    where and how long it took."""
     import rampwork as rw
     from rampwork.plotting import save
 
     args.out.mkdir(parents=True, exist_ok=True)
     written = [rw.write_netcdf(ds, args.out / f"{study}.nc", overwrite=True)]
-    written += save(fig, args.out, study, gallery=GALLERY if args.gallery else None)
+    written += save(fig, args.out, study, pdf=args.pdf, gallery=GALLERY if args.gallery else None)
     for path in written:
         print(f"  wrote {path}")
     print(f"  total {time.perf_counter() - started:.1f} s")

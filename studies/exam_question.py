@@ -11,6 +11,9 @@ they do not hold, or if convex > straight > concave fails where all three reach 
 
     python studies/exam_question.py            # ~5 s with compiled kernels cached
     python studies/exam_question.py --full --gallery
+
+Outputs (default folder studies/output/): exam_question.nc and exam_question.png
+(and .pdf with --pdf).
 """
 
 from __future__ import annotations

@@ -19,6 +19,9 @@ excess against the measured mean convexity for all three families.
 
     python studies/excess_work_map.py            # ~10 s with compiled kernels cached
     python studies/excess_work_map.py --full --gallery
+
+Outputs (default folder studies/output/): excess_work_map.nc and
+excess_work_map.png (and .pdf with --pdf).
 """
 
 from __future__ import annotations
@@ -62,18 +65,19 @@ def run_family(family: str, kappa, mu, v0):
                                     curvature=kappa, **axes).rename(curvature="kappa")
     if family == "sine":
         scene = rw.Scene(ramp=rw.Ramp.create("sine", amplitude=0.0, wavenumber=np.pi / L,
-                                             slope=H / L, domain=(0.0, L)), **base)
+                                             mean_slope=-H / L, domain=(0.0, L)), **base)
         return _study.simulate_grid(scene, None, amplitude=-kappa * L**2 / (2 * np.pi),
                                     **axes).rename(amplitude="kappa").assign_coords(kappa=kappa)
     parts = []  # circular arcs: a bowl for kappa > 0, a dome for kappa < 0
     for name, side in (("circular_dome", kappa < 0), ("circular_bowl", kappa > 0)):
-        xc, yc, r = arc_centre(kappa[side][0])
-        scene = rw.Scene(ramp=rw.Ramp.create(name, radius=r, x_centre=xc, y_centre=yc,
-                                             domain=(0.0, L)), **base)
+        def centre(p, name=name):
+            """Where the circle sits: the dome by its centre, the bowl by its bottom."""
+            x, y, r = arc_centre(1 / p["radius"] * (1 if name == "circular_bowl" else -1))
+            return dict(x_centre=x, **({"y_bottom": y - r} if name == "circular_bowl" else {"y_centre": y}))
 
-        def centre(p):
-            x, y, _ = arc_centre(1 / p["radius"] * (1 if name == "circular_bowl" else -1))
-            return dict(x_centre=x, y_centre=y)
+        radius = 1 / abs(kappa[side][0])
+        scene = rw.Scene(ramp=rw.Ramp.create(name, radius=radius, **centre({"radius": radius}),
+                                             domain=(0.0, L)), **base)
 
         parts.append(_study.simulate_grid(scene, centre, radius=1 / np.abs(kappa[side]), **axes)
                      .rename(radius="kappa").assign_coords(kappa=kappa[side]))

@@ -21,6 +21,9 @@ every event), and marks the region where the two criteria disagree.
 
     python studies/liftoff_map.py            # ~15 s with compiled kernels cached
     python studies/liftoff_map.py --full --gallery
+
+Outputs (default folder studies/output/): liftoff_map.nc and liftoff_map.png
+(and .pdf with --pdf).
 """
 
 from __future__ import annotations

@@ -17,6 +17,9 @@ blocks at rest stay where static friction holds them, and that n = 0 at lift-off
 
     python studies/phase_portraits.py            # ~5 s with compiled kernels cached
     python studies/phase_portraits.py --gallery
+
+Outputs (default folder studies/output/): phase_portraits.nc and
+phase_portraits.png (and .pdf with --pdf).
 """
 
 from __future__ import annotations

@@ -19,6 +19,9 @@ equal cost by interpolation.
 
     python studies/sign_changing_convexity.py            # ~10 s with compiled kernels cached
     python studies/sign_changing_convexity.py --full --gallery
+
+Outputs (default folder studies/output/): sign_changing_convexity.nc and
+sign_changing_convexity.png (and .pdf with --pdf).
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ def run(n_phase: int, n_amp: int, mu):
     import rampwork as rw
 
     scene = rw.Scene(
-        ramp=rw.Ramp.create("sine", amplitude=0.0, wavenumber=K, slope=SLOPE, domain=(0.0, L)),
+        ramp=rw.Ramp.create("sine", amplitude=0.0, wavenumber=K, mean_slope=-SLOPE, domain=(0.0, L)),
         integrator=rw.Integrator("rk4", 1e-3), x0=0.0, v0=V0, m=M, g=G, t_max=30.0,
         title=f"Sine wave on the chord from (0, 0) to ({L:g} m, {-H:g} m): convexity changing sign")
     sweep = rw.Sweep.grid(phase=_study.even(0, 2 * np.pi, n_phase),
@@ -109,7 +112,7 @@ def figure(ds, n):
     x = np.linspace(0, L, 201)
     ax.axhline(0.0, color="k", lw=1, ls=(0, (2, 2)), label="straight chord")
     for k, (p, name) in enumerate(zip(quarter, names)):
-        ramp = rw.Ramp.create("sine", amplitude=A_MAX, wavenumber=K, slope=SLOPE, phase=p,
+        ramp = rw.Ramp.create("sine", amplitude=A_MAX, wavenumber=K, mean_slope=-SLOPE, phase=p,
                               domain=(0.0, L))
         ax.plot(x, ramp.evaluate(x)[0] + SLOPE * x, markevery=25, **series(k, len(quarter)),
                 label=f"phase {name}")

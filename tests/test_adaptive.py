@@ -185,7 +185,7 @@ FAMILY_SPACE = {
     "quadratic": ((-1.0, 1.0), {"curvature": (-2.0, 3.0), "slope": (-0.5, 0.5)}),
     "circular_bowl": ((-0.9, 0.9), {"radius": (1.0, 3.0)}),
     "circular_dome": ((-0.9, 0.9), {"radius": (1.0, 3.0)}),
-    "sine": ((-2.0, 2.0), {"slope": (-0.3, 0.3), "amplitude": (0.05, 0.3),
+    "sine": ((-2.0, 2.0), {"mean_slope": (-0.3, 0.3), "amplitude": (0.05, 0.3),
                            "wavenumber": (1.0, 4.0), "phase": (0.0, 2 * math.pi)}),
 }
 #: trajectories per hypothesis example (one simulate call per tolerance for all)
@@ -615,7 +615,7 @@ def test_lift_off_is_found_when_the_normal_force_dips_inside_one_step(method, re
     friction does not remove it); a step that straddles the whole dip must
     not step over the lift-off.  Regression: until 1e7bcfe dopri5 at 1e-6
     lifted off at x = -1.784 instead (W_friction 9.74 J for 4.88 J)."""
-    ramp = rw.Ramp.create("sine", slope=-0.2962077727993549, amplitude=0.18158529065569318,
+    ramp = rw.Ramp.create("sine", mean_slope=0.2962077727993549, amplitude=0.18158529065569318,
                           wavenumber=3.686599286299794, phase=2.166264083069422, domain=(-2.0, 2.0))
     scene = rw.Scene(ramp=ramp, friction=rw.Friction(0.20989624352131858), x0=1.6660491696128146,
                      v0=-1.9576545081599797, t_max=T_MAX_RANDOM)
@@ -747,7 +747,7 @@ def test_pairs_bitwise_identical_whatever_threads_order_and_chunks(method, monke
     """Each trajectory carries its own step size, so nothing couples lanes:
     the same trajectory gives the same bits alone or in a sweep, as a grid or
     as cases in another order, on 1 or 2 threads, in one chunk or many."""
-    scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=3.0,
+    scene = rw.Scene(ramp=rw.Ramp.create("sine", mean_slope=-0.2, amplitude=0.15, wavenumber=3.0,
                                          domain=(-2.0, 2.0)),
                      friction=rw.Friction(0.1), x0=0.0, t_max=5.0,
                      integrator=rw.Integrator(method, rtol=1e-7))
@@ -896,7 +896,7 @@ def test_two_sided_switches_keep_their_step_size(method, reference):
     (status diverged where the reference exits): the first step of the new
     mode is exempt.  Against the scipy reference: statuses, end states and
     work to the tolerance."""
-    ramp = rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=6.0, domain=(-1.0, 1.0))
+    ramp = rw.Ramp.create("sine", mean_slope=-0.2, amplitude=0.15, wavenumber=6.0, domain=(-1.0, 1.0))
     scene = rw.Scene(ramp=ramp, friction=rw.Friction(0.1, 0.3), contact="two_sided", t_max=20.0,
                      integrator=rw.Integrator(method, rtol=1e-9))
     sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -0.5, 1.0, 4.0])

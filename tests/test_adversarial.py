@@ -205,7 +205,7 @@ BAD_PATHS = {
     "directory as output": (["run", "{scene}", "-o", "{dir}"], ["is a directory"]),
     "output in a missing directory": (["run", "{scene}", "-o", "{dir}/no/such/out.nc"], ["does not exist"]),
     "output below a file": (["run", "{scene}", "-o", "{scene}/out.nc"], ["not a directory"]),
-    "output in /proc": (["run", "{scene}", "-o", "/proc/out.nc"], ["/proc/out.nc", "not writable"]),
+    "output in /proc": (["run", "{scene}", "-o", "/proc/out.nc"], ["/proc/out.nc", "does not allow new files"]),
     "NUL byte in the output path": (["run", "{scene}", "-o", "{dir}/o\0ut.nc"], ["NUL"]),
     "output name of 300 characters": (["run", "{scene}", "-o", "{dir}/" + "x" * 300 + ".nc"], ["name too long"]),
 }

@@ -275,7 +275,7 @@ def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
     integrator = (rw.Integrator(method, rtol=1e-8) if method in ("dopri5", "dop853")
                   else rw.Integrator(method, 1e-3))
     for contact in ("one_sided", "two_sided"):
-        scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=6.0,
+        scene = rw.Scene(ramp=rw.Ramp.create("sine", mean_slope=-0.2, amplitude=0.15, wavenumber=6.0,
                                              domain=(-1.0, 1.0)),
                          friction=rw.Friction(0.0, 0.3), integrator=integrator, contact=contact,
                          t_max=20.0)
@@ -302,7 +302,7 @@ def test_uniform_parameters_in_registers_change_nothing(method):
     run's settings instead of each lane; bit-identical results."""
     integrator = (rw.Integrator(method, rtol=1e-8) if method in ("dopri5", "dop853")
                   else rw.Integrator(method, 1e-3))
-    scene = rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.15, wavenumber=6.0,
+    scene = rw.Scene(ramp=rw.Ramp.create("sine", mean_slope=-0.2, amplitude=0.15, wavenumber=6.0,
                                          domain=(-1.0, 1.0)),
                      friction=rw.Friction(0.1, 0.3), integrator=integrator, t_max=20.0)
     sweep = rw.Sweep.grid(x0=np.linspace(-0.9, 0.9, 7), v0=[-3.0, -0.5, 0.0, 1.0, 4.0])

@@ -245,7 +245,7 @@ def test_energy_balance_rk4_on_curved_ramps():
     """Integrated work (eq. 13) equals the energy lost (eq. 19) to RK4's accuracy."""
     scenes = [
         (bowl_scene(), rw.Sweep.grid(x0=[-0.85, -0.4, 0.3, 0.8], v0=[-1.5, 0.0, 2.0], mu=[0.05, 0.3])),
-        (rw.Scene(ramp=rw.Ramp.create("sine", slope=0.2, amplitude=0.1, wavenumber=3.0, domain=(-2, 2)),
+        (rw.Scene(ramp=rw.Ramp.create("sine", mean_slope=-0.2, amplitude=0.1, wavenumber=3.0, domain=(-2, 2)),
                   friction=rw.Friction(0.0, 0.5), x0=-1.5),
          rw.Sweep.grid(x0=[-1.5, 0.2], v0=[-1.0, 0.5, 2.0], mu_k=[0.05, 0.2])),
         (rw.Scene(ramp=rw.Ramp.create("cycloid", radius=0.8, domain=(-2.3, 2.3)),
@@ -436,7 +436,8 @@ def test_convex_costs_more_than_straight_more_than_concave(reference):
     a, b, radius, m = (0.0, 1.0), (2.0, 0.0), 6.0, 2.0
     (bx, by), (dx, dy) = _arc_centres(a, b, radius)
     ramps = {
-        "bowl": rw.Ramp.create("circular_bowl", radius=radius, x_centre=bx, y_centre=by, domain=(0.0, 2.0)),
+        "bowl": rw.Ramp.create("circular_bowl", radius=radius, x_centre=bx, y_bottom=by - radius,
+                                domain=(0.0, 2.0)),
         "straight": rw.Ramp.create("straight", slope=-0.5, height=1.0, domain=(0.0, 2.0)),
         "dome": rw.Ramp.create("circular_dome", radius=radius, x_centre=dx, y_centre=dy, domain=(0.0, 2.0)),
     }
@@ -560,6 +561,16 @@ def test_bitwise_identical_whatever_the_thread_count():
 # ------------------------------------------------------------------------------
 # recorded trajectories
 # ------------------------------------------------------------------------------
+def test_traced_coordinates_carry_their_axes_units():
+    """traced_<axis>, the swept values of each recorded trajectory, have the
+    units of the axis (schema.py, the registry), like the axis itself."""
+    ds = run(straight_scene(record=rw.Record(indices=(1,), every=7)),
+             _cases([STRAIGHT_CASES[1], STRAIGHT_CASES[2], STRAIGHT_CASES[0]]))
+    for name, units in (("x0", "m"), ("v0", "m s-1"), ("slope", "1"), ("mu_k", "1"), ("mu_s", "1")):
+        assert ds[f"traced_{name}"].attrs["units"] == ds[name].attrs["units"] == units, name
+        assert ds[f"traced_{name}"].attrs["long_name"].endswith("of the traced trajectory")
+
+
 def test_recorded_trace_starts_and_ends_on_the_trajectory():
     slope, x0, v0, mu_k, mu_s = STRAIGHT_CASES[2]
     scene = straight_scene(record=rw.Record(indices=(1,), every=7))
@@ -603,8 +614,8 @@ RANDOM_FAMILIES = {
     "quadratic": (dict(curvature=1.0, slope=0.2, domain=(-2.0, 2.0)),
                   dict(curvature=(-1.0, 3.0), slope=(-0.3, 0.3))),
     "circular_bowl": (dict(radius=2.0, domain=(-1.0, 1.0)), dict(radius=(1.1, 3.0))),
-    "sine": (dict(slope=0.2, amplitude=0.1, wavenumber=3.0, domain=(-2.0, 2.0)),
-             dict(amplitude=(0.05, 0.3), slope=(-0.1, 0.3))),
+    "sine": (dict(mean_slope=-0.2, amplitude=0.1, wavenumber=3.0, domain=(-2.0, 2.0)),
+             dict(amplitude=(0.05, 0.3), mean_slope=(-0.3, 0.1))),
     "cycloid": (dict(radius=0.8, domain=(-1.4, 1.4)), dict(radius=(0.5, 1.0))),
 }
 N_PER_FAMILY = 5

@@ -48,7 +48,7 @@ FAMILIES = {
     "quadratic": ((-1.0, 1.0), {"curvature": (-2.0, 3.0), "slope": (-0.5, 0.5)}),
     "circular_bowl": ((-0.9, 0.9), {"radius": (1.0, 3.0)}),
     "circular_dome": ((-0.9, 0.9), {"radius": (1.0, 3.0)}),
-    "sine": ((-2.0, 2.0), {"slope": (-0.3, 0.3), "amplitude": (0.05, 0.3), "wavenumber": (1.0, 4.0),
+    "sine": ((-2.0, 2.0), {"mean_slope": (-0.3, 0.3), "amplitude": (0.05, 0.3), "wavenumber": (1.0, 4.0),
                            "phase": (0.0, 2 * math.pi)}),
     "cycloid": ((-1.4, 1.4), {"radius": (0.5, 1.0)}),
     "spline": ((-1.0, 1.0), {}),

@@ -20,10 +20,10 @@ from rampwork.ramps import FAMILIES, Ramp
 SAMPLES = {
     "straight": Ramp.create("straight", slope=-0.4, height=1.5, domain=(-2.0, 3.0)),
     "quadratic": Ramp.create("quadratic", curvature=0.7, slope=-0.3, height=0.2, domain=(-2.0, 2.5)),
-    "circular_bowl": Ramp.create("circular_bowl", radius=2.0, x_centre=0.3, y_centre=1.0, domain=(-1.5, 2.1)),
+    "circular_bowl": Ramp.create("circular_bowl", radius=2.0, x_centre=0.3, y_bottom=-1.0, domain=(-1.5, 2.1)),
     "circular_dome": Ramp.create("circular_dome", radius=1.5, x_centre=-0.2, y_centre=0.5, domain=(-1.6, 1.2)),
     "cycloid": Ramp.create("cycloid", radius=0.8, domain=(-2.4, 2.4)),
-    "sine": Ramp.create("sine", slope=0.3, amplitude=0.2, wavenumber=3.0, phase=0.4, domain=(-2.0, 4.0)),
+    "sine": Ramp.create("sine", mean_slope=-0.3, amplitude=0.2, wavenumber=3.0, phase=0.4, domain=(-2.0, 4.0)),
     "spline": Ramp.create("spline", x_points=[-1.0, -0.2, 0.5, 1.0, 2.2, 3.0],
                           y_points=[1.0, 0.3, 0.1, 0.25, 0.2, 0.9]),
 }
@@ -105,7 +105,8 @@ def test_straight_quadratic_sine_closed_forms():
 def test_circle_closed_forms(name, sign):
     ramp = SAMPLES[name]
     p = ramp.param_dict()
-    r, xc, yc = p["radius"], p["x_centre"], p["y_centre"]
+    r, xc = p["radius"], p["x_centre"]
+    yc = p["y_bottom"] + r if name == "circular_bowl" else p["y_centre"]  # the centre
     lo, hi = ramp.domain
     x = np.concatenate([np.linspace(lo, hi, 201), [xc - r * (1 - 1e-9), xc + r * (1 - 1e-12)]])
     f, fp, fpp = ramp.evaluate(x)
@@ -394,7 +395,7 @@ def test_bad_input_raises_config_error(kwargs, message):
 
 def test_check_values_on_arrays_names_the_offending_value():
     bowl = FAMILIES["circular_bowl"]
-    values = {"radius": np.array([2.0, 1.5, 3.0]), "x_centre": np.zeros(3), "y_centre": np.zeros(3)}
+    values = {"radius": np.array([2.0, 1.5, 3.0]), "x_centre": np.zeros(3), "y_bottom": np.zeros(3)}
     bowl.check_values({**values, "radius": np.array([2.0, 2.5, 3.0])}, (-1.6, 1.6))
     with pytest.raises(ConfigError, match=r"ramp\.domain: .*radius = 1\.5.*\(value 1 of 3\)"):
         bowl.check_values(values, (-1.6, 1.6))
@@ -402,7 +403,7 @@ def test_check_values_on_arrays_names_the_offending_value():
         bowl.check_values({**values, "radius": np.array([2.0, 2.0, -2.0])}, (-1.0, 1.0))
     with pytest.raises(ConfigError, match=r"ramp\.x_centre: .*finite.*nan"):
         bowl.check_values({**values, "x_centre": np.array([0.0, np.nan, 0.0])}, (-1.0, 1.0))
-    with pytest.raises(ConfigError, match=r"ramp\.y_centre: required"):
+    with pytest.raises(ConfigError, match=r"ramp\.y_bottom: required"):
         bowl.check_values({"radius": values["radius"], "x_centre": values["x_centre"]}, (-1.0, 1.0))
     with pytest.raises(ConfigError, match=r"ramp\.height: unknown parameter"):
         bowl.check_values({**values, "height": np.zeros(3)}, (-1.0, 1.0))
@@ -414,7 +415,7 @@ def test_check_values_on_arrays_names_the_offending_value():
 
 def test_pack():
     sine = FAMILIES["sine"]
-    values = {"slope": np.array([0.1, 0.2]), "amplitude": np.array([1.0, 2.0]),
+    values = {"mean_slope": np.array([0.1, 0.2]), "amplitude": np.array([1.0, 2.0]),
               "wavenumber": np.array([3.0, 4.0]), "phase": np.array([0.0, 0.5])}
     p = sine.pack(values)
     assert len(p) == 4 and all(a.dtype == np.float64 and a.shape == (2,) for a in p)
@@ -428,7 +429,7 @@ def test_pack():
 
 def test_params_filled_and_ordered_and_round_trip():
     ramp = Ramp.create("sine", domain=[0, 1], wavenumber=2, amplitude=1)
-    assert ramp.params == (("slope", 0.0), ("amplitude", 1.0), ("wavenumber", 2.0), ("phase", 0.0))
+    assert ramp.params == (("mean_slope", 0.0), ("amplitude", 1.0), ("wavenumber", 2.0), ("phase", 0.0))
     assert ramp.domain == (0.0, 1.0)
     assert ramp.param_dict()["amplitude"] == 1.0
     assert ramp.shared_array().tolist() == [0.0]
@@ -467,11 +468,11 @@ def test_curvature_sign():
     assert sign("quadratic", curvature=[-0.5], slope=0, height=0) == -1
     assert sign("quadratic", curvature=[0.0, 0.0], slope=0, height=0) == 0
     assert sign("quadratic", curvature=[-0.5, 0.5], slope=0, height=0) is None
-    assert sign("circular_bowl", radius=2.0, x_centre=0, y_centre=0) == 1
+    assert sign("circular_bowl", radius=2.0, x_centre=0, y_bottom=0) == 1
     assert sign("circular_dome", radius=2.0, x_centre=0, y_centre=0) == -1
     assert sign("cycloid", radius=1.0) == 1
-    assert sign("sine", slope=0.1, amplitude=0.2, wavenumber=1.0, phase=0.0) is None
-    assert sign("sine", slope=0.1, amplitude=[0.0, 0.0], wavenumber=1.0, phase=0.0) == 0
+    assert sign("sine", mean_slope=0.1, amplitude=0.2, wavenumber=1.0, phase=0.0) is None
+    assert sign("sine", mean_slope=0.1, amplitude=[0.0, 0.0], wavenumber=1.0, phase=0.0) == 0
     assert SAMPLES["cycloid"].curvature_sign() == 1
     assert SAMPLES["spline"].curvature_sign() is None
     assert ramps.spline([0, 1, 2, 3], [1, 0, 0, 1]).curvature_sign() == 1

@@ -83,7 +83,7 @@ def test_bitwise_identical_whatever_the_block_and_tile_size():
     from rampwork.core import kernel as K
     from rampwork.core.variant import KernelVariant
 
-    scene = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=1.0, y_centre=1.0, domain=(-0.9, 0.9)),
+    scene = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=1.0, domain=(-0.9, 0.9)),
                      friction=rw.Friction(0.05, 0.15), x0=0.0, t_max=15.0)
     sweep = rw.Sweep.random(700, seed=11, x0=(-0.85, 0.85), v0=(-3.0, 3.0), mu_k=(0.0, 0.15))
     plan = runner.plan_run(scene, sweep)

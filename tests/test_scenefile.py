@@ -78,7 +78,7 @@ def test_load_scene_reads_a_file(tmp_path):
 
 def _every_kind_of_scene():
     spline = Ramp.create("spline", x_points=[0.0, 0.3, 1.1, 2.0], y_points=[1.0, 0.4, 0.35, 0.0])
-    bowl = Ramp.create("circular_bowl", radius=1.7, x_centre=0.1, y_centre=2.0, domain=(-1.5, 1.6))
+    bowl = Ramp.create("circular_bowl", radius=1.7, x_centre=0.1, y_bottom=0.3, domain=(-1.5, 1.6))
     tricky = [0.1 + 0.2, 5e-324, -0.0, 1e300, -1.2345678901234567e-200, 2.0 ** 0.5, 1 / 3]
     yield (Scene(ramp=spline, x0=0.05, friction=Friction(0.1, 0.3), record=Record(indices=(0, 2))),
            Sweep.grid(v0=tricky))

@@ -238,7 +238,7 @@ def test_refuses_overwrite_then_overwrites(tmp_path):
     before = path.read_bytes()
     with pytest.raises(ConfigError) as err:
         io.write_netcdf(_dataset(seed=2), path)
-    assert str(err.value) == f"{path}: exists; pass overwrite=True (CLI: --overwrite) to replace it"
+    assert str(err.value) == f"{path}: exists; pass overwrite=True to replace it"
     assert path.read_bytes() == before
     io.write_netcdf(_dataset(seed=2), path, overwrite=True)
     _assert_identical_values(_dataset(seed=2), io.open_dataset(path))

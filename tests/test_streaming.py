@@ -3,6 +3,7 @@ file equals simulate()'s dataset bit for bit, a killed run resumes to the same
 file, memory stays bounded, and a Dask cluster gives the same results."""
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -179,7 +180,8 @@ def test_overwrite_rules(tmp_path):
     path.unlink()
     with pytest.raises(rw.ConfigError, match="holds an unfinished run") as error:
         rw.run_to_file(scene, sweep, path)
-    assert "--resume" in str(error.value) and "--overwrite" in str(error.value)
+    # the API's words (the command line says --resume, --overwrite: test_findings.py)
+    assert "resume=True" in str(error.value) and "overwrite=True" in str(error.value)
     # overwrite starts over (a different sweep is fine then)
     other = rw.Sweep.grid(mu=[0.15, 0.25])
     rw.run_to_file(scene, other, path, overwrite=True, chunk_size=1)
@@ -219,7 +221,6 @@ t_max = 30.0
 [ramp]
 family = "circular_bowl"
 radius = 1.0
-y_centre = 1.0
 domain = [-0.95, 0.95]
 [friction]
 mu_k = 0.05
@@ -283,6 +284,38 @@ def test_a_killed_run_resumes_to_an_identical_file(tmp_path):
     scene, sweep = parse_scene(KILL_SCENE)
     whole = rw.run_to_file(scene, sweep, tmp_path / "whole.nc", chunk_size=400)
     assert_same_file(rw.open_dataset(whole), rw.open_dataset(path))
+
+
+def test_sigterm_keeps_the_finished_chunks_and_says_how_to_resume(tmp_path):
+    """SIGTERM, which batch schedulers send, is handled like Ctrl-C: the
+    finished chunks stay in the partial file, the resume hint is printed, and
+    the exit status is the shell's for SIGTERM (143)."""
+    scene_path = tmp_path / "bowl.toml"
+    scene_path.write_text(KILL_SCENE, encoding="utf-8")
+    path = tmp_path / "out.nc"
+    partial = partial_path(path)
+    process = subprocess.Popen(_rampwork("run", scene_path, "-o", path, "-q", "--chunk-size", 400),
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 600
+        while _chunks_done_yet(partial) < 2 and process.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert process.poll() is None, f"the run ended before it could be stopped: {process.communicate()}"
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+        process.wait()
+    assert process.returncode == 143, err
+    lines = err.strip().splitlines()
+    assert re.fullmatch(rf"rampwork: note: (\d+) of 40 chunks are saved in {re.escape(str(partial))}; "
+                        r"run the same command with --resume to finish", lines[-2]), err
+    assert lines[-1] == "rampwork: error: terminated (SIGTERM)" and "Traceback" not in err
+    assert not path.exists() and 2 <= _chunks_done(partial) < 40
+    resumed = subprocess.run(_rampwork("run", scene_path, "-o", path, "--resume", "-q"),
+                             capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert rw.open_dataset(path).status.size == 16000 and not partial.exists()
 
 
 # ------------------------------------------------------------------------------

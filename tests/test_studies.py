@@ -2,7 +2,7 @@
 
 Each study runs once per session in-process on tiny grids (the kernels are
 the studies' own few variants, cached on disk by numba) and must write a
-readable rampwork netCDF file, a PNG and a PDF.  The physics assertions use
+readable rampwork netCDF file, a PNG and, with --pdf, a PDF.  The physics assertions use
 closed forms (the paper's eq. 1 on the chord, sqrt(2 g (H - mu L))), the
 ordering claim of the paper, the first-order perturbation formula for a wave
 on the chord (its error must shrink as a^2), the analytic disagreement region
@@ -13,6 +13,7 @@ function's analytic Sobol' indices.
 from __future__ import annotations
 
 import importlib
+import re
 import sys
 from pathlib import Path
 
@@ -42,7 +43,7 @@ def outputs(tmp_path_factory):
     for name in STUDIES:
         folder = tmp_path_factory.mktemp(name)
         module = study_module(name)
-        assert module.main(["--smoke", "--out", str(folder)]) == 0
+        assert module.main(["--smoke", "--out", str(folder), "--pdf"]) == 0
         runs[name] = (module, folder)
     return runs
 
@@ -75,6 +76,25 @@ def test_gallery_option_copies_the_png(outputs, tmp_path, monkeypatch):
     assert (tmp_path / "tiny.png").read_bytes() == (tmp_path / "out" / "tiny.png").read_bytes()
     assert rw.open_dataset(tmp_path / "out" / "tiny.nc").sizes == \
         dataset(outputs, "phase_portraits").sizes
+
+
+def test_a_pdf_only_with_the_pdf_option(tmp_path):
+    """Every study writes NAME.nc and NAME.png, and NAME.pdf only with --pdf,
+    as each one's docstring says (convexity_comparison.py included)."""
+    from rampwork.plotting import new_figure
+
+    _study = study_module("_study")
+
+    for options, pdf in (([], False), (["--pdf"], True)):
+        args = _study.parser("A study.").parse_args(["--out", str(tmp_path / str(pdf))] + options)
+        fig, axes = new_figure()
+        axes[0, 0].plot([0, 1], [0, 1])
+        _study.finish("tiny", xr.Dataset(), fig, args, 0.0)
+        assert (tmp_path / str(pdf) / "tiny.png").exists()
+        assert (tmp_path / str(pdf) / "tiny.pdf").exists() == pdf
+    for path in STUDIES_DIR.glob("*.py"):
+        doc = study_module(path.stem).__doc__
+        assert re.search(r"\.pdf[^.]* with (``)?--pdf", " ".join(doc.split())), path.name
 
 
 def test_exam_question_closed_forms_and_ordering(outputs):
@@ -115,8 +135,8 @@ def test_excess_work_sign_and_reference(outputs, reference):
     for kappa in (-0.3, 0.3):
         xc, yc, radius = module.arc_centre(kappa)
         family = "circular_bowl" if kappa > 0 else "circular_dome"
-        ramp = rw.Ramp.create(family, radius=radius, x_centre=xc, y_centre=yc,
-                              domain=(0.0, module.L))
+        height = {"y_bottom": yc - radius} if family == "circular_bowl" else {"y_centre": yc}
+        ramp = rw.Ramp.create(family, radius=radius, x_centre=xc, **height, domain=(0.0, module.L))
         assert abs(ramp.evaluate([0.0])[0][0]) < 1e-12
         assert abs(ramp.evaluate([module.L])[0][0] + module.H) < 1e-12
         scene = rw.Scene(ramp=ramp, friction=rw.Friction(mu), x0=0.0, v0=v0, m=module.M,
@@ -137,7 +157,7 @@ def test_sign_changing_first_order_and_equal_cost(outputs):
                                                                                    method="nearest"))
     # the deviation from the first-order formula is O(a^2): halving a quarters it
     scene = rw.Scene(ramp=rw.Ramp.create("sine", amplitude=0.0, wavenumber=module.K,
-                                         slope=module.SLOPE, domain=(0.0, module.L)),
+                                         mean_slope=-module.SLOPE, domain=(0.0, module.L)),
                      x0=0.0, v0=module.V0, m=module.M, g=module.G)
     amplitudes = np.array([0.02, 0.01, 0.005])
     run = rw.simulate(scene, rw.Sweep.grid(amplitude=amplitudes, phase=[0.0, 1.0], mu=[0.2]))

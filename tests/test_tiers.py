@@ -25,7 +25,7 @@ RAMPS = {
     "quadratic": dict(curvature=-1.2, slope=0.2, domain=(-1.0, 1.0)),
     "circular_bowl": dict(radius=1.0, domain=(-0.9, 0.9)),
     "circular_dome": dict(radius=1.0, domain=(-0.9, 0.9)),
-    "sine": dict(slope=0.2, amplitude=0.15, wavenumber=6.0, domain=(-1.0, 1.0)),
+    "sine": dict(mean_slope=-0.2, amplitude=0.15, wavenumber=6.0, domain=(-1.0, 1.0)),
     "cycloid": dict(radius=0.5, domain=(-1.2, 1.2)),
     "spline": dict(x_points=[-1.0, -0.3, 0.2, 1.0], y_points=[0.6, 0.0, 0.1, 0.5]),
 }

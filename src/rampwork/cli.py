@@ -1,26 +1,35 @@
 """The ``rampwork`` command line: run, check, example, info.
 
-Every bad input (a ConfigError, an unreadable scene file) prints one line
-``rampwork: error: <message>`` to stderr and exits with status 2; usage errors
-exit 2 too; Ctrl-C exits 130.  Nothing is written for a refused run, and an
-existing output file is replaced only with ``--overwrite``.
+Every bad input (a ConfigError, an unreadable scene file, a bad option value)
+prints one line ``rampwork: error: <message>`` to stderr and exits with status
+2; usage errors exit 2 too; Ctrl-C exits 130 and SIGTERM (what batch
+schedulers send) 143, both after saying how to resume an unfinished run.
+Nothing is written for a refused run, and an existing output file is replaced
+only with ``--overwrite``.  Messages spell options as the command line does
+(``--overwrite``, not ``overwrite=True``: :func:`rampwork.errors.option`),
+and name the command as it can be typed here (:func:`command_name`).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
+import signal
 import sys
 import time
+import warnings
 from importlib import resources
 from pathlib import Path
 
 from ._version import __version__
-from .errors import ConfigError
+from .errors import ClosedFormNotice, ConfigError, front_end, option
 
 EXIT_OK = 0
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = 130
+#: 128 + SIGTERM, the shell's convention for a process ended by SIGTERM
+EXIT_TERMINATED = 128 + int(signal.SIGTERM)
 
 DESCRIPTION = """\
 rampwork: parameter studies of a point mass sliding with Coulomb friction on a
@@ -52,14 +61,65 @@ e.g. integrator.dt=1e-4, friction.mu_k=0.2, t_max=5, contact=two_sided,
 # ----------------------------------------------------------------------------
 
 
-def _positive_int(text: str) -> int:
+def _positive_int(option: str, text: str | None) -> int | None:
+    """An option's positive integer, checked by the command rather than by
+    argparse: a bad value is a one-line error like every other, not argparse's
+    usage block."""
+    if text is None:
+        return None
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+        raise ConfigError(option, f"expected a positive integer, got {text!r}") from None
     if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+        raise ConfigError(option, f"expected a positive integer, got {text!r}")
     return value
+
+
+def command_name(argv0: str | None = None) -> str:
+    """The command as it can be typed here to run rampwork again: ``rampwork``
+    where that is on the PATH, else the script that ran (``.venv/bin/rampwork``
+    when the virtual environment is not activated), or ``python -m rampwork``
+    with the interpreter running it."""
+    argv0 = sys.argv[0] if argv0 is None else argv0
+    on_path = shutil.which("rampwork")
+    script = os.path.basename(argv0).removesuffix(".exe")
+    if script == "rampwork" and argv0:
+        if on_path and os.path.abspath(on_path) == os.path.abspath(argv0):
+            return "rampwork"
+        return argv0 if os.sep in argv0 else os.path.join(".", argv0)
+    if script != "__main__.py" and on_path:  # main() called in-process
+        return "rampwork"
+    python = sys.executable or "python3"
+    for name in ("python", "python3"):
+        found = shutil.which(name)
+        if found and os.path.abspath(found) == os.path.abspath(python):
+            return f"{name} -m rampwork"
+    try:
+        relative = os.path.relpath(python)
+    except ValueError:  # pragma: no cover - another drive on Windows
+        relative = python
+    return f"{relative if not relative.startswith('..') else python} -m rampwork"
+
+
+def _with_command(text: str, prog: str) -> str:
+    """Help text whose example commands start with ``prog`` instead of ``rampwork``."""
+    import re
+
+    return re.sub(r"(?m)(^  |`)rampwork(?= )", lambda match: match.group(1) + prog, text)
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C: finished chunks stay, the resume hint is printed."""
+
+
+def _terminate(signum, frame):
+    raise _Terminated()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings (a renamed scene parameter, ...) as one ``rampwork: warning:`` line."""
+    print(f"rampwork: warning: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
 
 
 def _examples_dir():
@@ -156,6 +216,16 @@ def _compile_notice(plan) -> None:
               f"({WARMUP_ENV}=0 turns this off)", flush=True)
 
 
+def _integration(plan) -> str:
+    """The integrator in words, and that a straight ramp does not use it (the
+    CLI says so here, in its summary, instead of a ClosedFormNotice)."""
+    text = plan.scene.integrator.describe()
+    if plan.variant.closed_form:
+        text += (f" (not used: a straight ramp is solved in closed form; {option('closed_form')} "
+                 "steps with it)")
+    return text
+
+
 def _warn_shadowed(overrides, sweep) -> None:
     """--set of a value that a sweep axis replaces has no effect: say so."""
     names = set(sweep.names)
@@ -241,12 +311,28 @@ def _run_error(args, error: ConfigError) -> ConfigError:
     return ConfigError(args.scene, f"{error.where}: {error.problem}")
 
 
+def _check_output_is_not_an_input(args) -> None:
+    """Refuse an output that would replace the scene file it is computed from
+    (``-o s.toml --overwrite`` replaced the scene with the results)."""
+    output, scene = Path(args.output), Path(args.scene)
+    try:
+        same = output.exists() and scene.exists() and os.path.samefile(output, scene)
+    except OSError:
+        same = False
+    if same or (output.resolve() == scene.resolve()):
+        raise ConfigError(args.output, f"is the scene file {args.scene!r} itself; the results "
+                          "would replace it: give -o another file (e.g. OUT.nc)")
+
+
 def cmd_run(args) -> int:
     import xarray as xr
 
     from .streaming import SweepToFile
 
+    args.threads = _positive_int("--threads", args.threads)
+    args.chunk_size = _positive_int("--chunk-size", args.chunk_size)
     scene, sweep = _load(args.scene, args.set)
+    _check_output_is_not_an_input(args)
     _warn_shadowed(args.set, sweep)
     plan = _plan(args.scene, scene, sweep)
     try:
@@ -256,7 +342,7 @@ def cmd_run(args) -> int:
         raise _run_error(args, error) from None
     if not args.quiet:
         print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
-              f"{scene.integrator.describe()}", flush=True)
+              f"{_integration(plan)}", flush=True)
         if job.resuming:
             print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
                   flush=True)
@@ -266,7 +352,7 @@ def cmd_run(args) -> int:
         output = job.run(progress)
     except ConfigError as error:
         raise _run_error(args, error) from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (_Terminated)
         if job.partial.exists():
             print(f"rampwork: note: {job.done_chunks} of {job.total_chunks} chunks are saved in "
                   f"{job.partial}; run the same command with --resume to finish", file=sys.stderr)
@@ -302,7 +388,7 @@ def cmd_check(args) -> int:
     ramp = scene.ramp
     params = ", ".join(f"{k} = {v!r}" for k, v in ramp.params)
     integrator = scene.integrator
-    steps = ("" if integrator.adaptive else
+    steps = ("" if integrator.adaptive or plan.variant.closed_form else
              f" (at most {scene.t_max / integrator.dt:,.0f} steps per trajectory)")
     print(f"{args.scene}: OK")
     print(f"title         {scene.title}")
@@ -313,7 +399,7 @@ def cmd_check(args) -> int:
     if scene.drag.enabled:
         print(f"drag          linear = {scene.drag.linear!r} s-1, "
               f"quadratic = {scene.drag.quadratic!r} m-1")
-    print(f"integrator    {integrator.describe()}, t_max = {scene.t_max!r} s{steps}")
+    print(f"integrator    {_integration(plan)}, t_max = {scene.t_max!r} s{steps}")
     dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
     print(f"sweep         {_sweep_shape(sweep)}; {dims}")
     print(f"trajectories  {plan.size:,}")
@@ -323,7 +409,7 @@ def cmd_check(args) -> int:
 
 def cmd_example(args) -> int:
     if args.name is None:
-        print("example scenes (print one with `rampwork example NAME > scene.toml`):")
+        print(f"example scenes (print one with `{command_name()} example NAME > scene.toml`):")
         names = example_names()
         width = max(map(len, names), default=0)
         for name in names:
@@ -383,10 +469,13 @@ def cmd_info(args) -> int:
 # ----------------------------------------------------------------------------
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
+    """The parser; ``prog``: the command as shown in usage and examples
+    (default :func:`command_name`)."""
     fmt = argparse.RawDescriptionHelpFormatter
-    parser = argparse.ArgumentParser(prog="rampwork", description=DESCRIPTION, epilog=EPILOG,
-                                     formatter_class=fmt)
+    prog = command_name() if prog is None else prog
+    parser = argparse.ArgumentParser(prog=prog, description=_with_command(DESCRIPTION, prog),
+                                     epilog=_with_command(EPILOG, prog), formatter_class=fmt)
     parser.add_argument("--version", action="version", version=f"rampwork {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
     commands.required = True
@@ -399,12 +488,12 @@ def build_parser() -> argparse.ArgumentParser:
                     "bounded; an interrupted run continues with --resume), rename the finished "
                     "file to OUTPUT and print a summary: trajectories, compile and run time, "
                     "trajectory-steps per second, end statuses.")
-    run.add_argument("scene", metavar="SCENE.toml", help="scene file (see `rampwork example`)")
+    run.add_argument("scene", metavar="SCENE.toml", help=f"scene file (see `{prog} example`)")
     run.add_argument("-o", "--output", metavar="OUT.nc", required=True,
                      help="netCDF file to write (required); its directory must exist")
     run.add_argument("--overwrite", action="store_true",
                      help="replace OUT.nc if it exists (default: refuse, exit status 2)")
-    run.add_argument("--threads", metavar="N", type=_positive_int, default=None,
+    run.add_argument("--threads", metavar="N", default=None,
                      help="worker threads, 1 .. NUMBA_NUM_THREADS (default: all, "
                           f"here {os.cpu_count() or '?'} cores)")
     run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help=SET_HELP)
@@ -418,7 +507,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="finish an interrupted run of OUT.nc: its finished chunks are kept in "
                           ".OUT.nc.partial beside it, and only the others run; refused if the scene "
                           "or sweep differ (without a partial file: an ordinary run)")
-    run.add_argument("--chunk-size", metavar="N", type=_positive_int, default=None,
+    run.add_argument("--chunk-size", metavar="N", default=None,
                      help="trajectories per chunk, the unit of writing, resuming and Dask tasks "
                           "(default: 262144; a resumed run keeps its own)")
     run.add_argument("--scheduler", metavar="ADDRESS", default=None,
@@ -439,7 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
     example = commands.add_parser(
         "example", help="list the example scenes, or print one", formatter_class=fmt,
         description="Without NAME: list the example scenes shipped with rampwork.  With NAME: "
-                    "print that scene file to stdout, e.g. `rampwork example straight > my.toml`.")
+                    f"print that scene file to stdout, e.g. `{prog} example straight > my.toml`.")
     example.add_argument("name", metavar="NAME", nargs="?", default=None,
                          help="example to print (with or without .toml; default: list them)")
     example.set_defaults(handler=cmd_example)
@@ -449,7 +538,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Print a rampwork result file's title, provenance, dimensions, coordinates "
                     "and variables with their units, end-status counts, timing and the stored "
                     "scene (a scene file that reproduces the run).")
-    info.add_argument("dataset", metavar="DATASET.nc", help="netCDF file written by `rampwork run`")
+    info.add_argument("dataset", metavar="DATASET.nc", help=f"netCDF file written by `{prog} run`")
     info.add_argument("--no-scene", action="store_true", help="do not print the stored scene "
                       "(default: print it)")
     info.set_defaults(handler=cmd_info)
@@ -466,8 +555,26 @@ def _error(message: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default: ``sys.argv[1:]``); returns
-    the exit status (0 ok, 2 bad input or usage, 130 interrupted)."""
-    parser = build_parser()
+    the exit status (0 ok, 2 bad input or usage, 130 interrupted, 143
+    terminated by SIGTERM)."""
+    try:  # SIGTERM as Ctrl-C: the same cleanup and resume hint (main thread only)
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # pragma: no cover - main() called from another thread
+        previous = None
+    try:
+        with front_end("cli"), warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            # said in the summary instead, where `check` and `run` describe the integrator
+            warnings.simplefilter("ignore", ClosedFormNotice)
+            return _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: list[str] | None) -> int:
+    # the command as typed to start this process; main([...]) from Python: its name
+    parser = build_parser(None if argv is None else "rampwork")
     for argument in argv or ():
         if isinstance(argument, str) and "\0" in argument:  # only main([...]) can pass one
             _error(f"argument {argument!r} contains a NUL byte: not a file name or value")
@@ -492,6 +599,9 @@ def main(argv: list[str] | None = None) -> int:
         name = f"{error.filename}: " if getattr(error, "filename", None) else ""
         _error(f"{name}{error.strerror or error}")
         return EXIT_ERROR
+    except _Terminated:
+        _error("terminated (SIGTERM)")
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         _error("interrupted")
         return EXIT_INTERRUPTED

@@ -7,6 +7,7 @@ file in the same directory, fsync, ``os.replace``).
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import tempfile
@@ -18,7 +19,7 @@ import numpy as np
 import xarray as xr
 
 from rampwork import schema
-from rampwork.errors import ConfigError
+from rampwork.errors import ConfigError, option
 
 __all__ = ["write_netcdf", "open_dataset", "check_writable", "temp_path", "define_variables",
            "set_attributes", "replace_file", "CHUNK_BYTES"]
@@ -59,18 +60,36 @@ def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
     if path.is_dir():
         raise ConfigError(where, "is a directory")
     if path.exists() and not overwrite:
-        raise ConfigError(where, "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+        raise ConfigError(where, f"exists; pass {option('overwrite')} to replace it")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise ConfigError(where, f"directory {str(parent)!r} is not writable")
+        raise ConfigError(where, f"directory {str(parent)!r} is not writable (permission denied)")
     try:
         fd, probe = tempfile.mkstemp(prefix=f".{path.name}.probe-", dir=parent)
     except OSError as exc:
-        raise ConfigError(
-            where, f"directory {str(parent)!r} is not writable: {_one_line(exc.strerror or exc)}"
-        ) from None
+        raise ConfigError(where, _cannot_create(str(parent), exc)) from None
     os.close(fd)
     os.unlink(probe)
     return path
+
+
+#: why a file cannot be created in a directory that exists, by errno
+_CREATE_REASONS = {
+    errno.EACCES: "is not writable (permission denied)",
+    errno.EPERM: "is not writable (operation not permitted)",
+    errno.EROFS: "is on a read-only file system",
+    errno.ENOSPC: "is on a full disk (no space left on the device)",
+    errno.EDQUOT: "is on a disk whose quota is exhausted",
+    # a directory that exists but where new files do not: /proc, /sys
+    errno.ENOENT: "exists, but its file system does not allow new files (as in /proc or /sys)",
+}
+
+
+def _cannot_create(parent: str, error: OSError) -> str:
+    """What is wrong when no file can be created in the existing ``parent``."""
+    reason = _CREATE_REASONS.get(error.errno)
+    if reason is None:
+        return f"cannot create a file in directory {parent!r}: {_one_line(error.strerror or error)}"
+    return f"cannot create a file in directory {parent!r}: it {reason}"
 
 
 def _chunksizes(shape: tuple[int, ...], itemsize: int) -> tuple[int, ...]:
@@ -201,7 +220,7 @@ def replace_file(source: Path, path: Path, overwrite: bool) -> None:
     replace a ``path`` that appeared meanwhile unless ``overwrite``."""
     fsync_file(source)
     if not overwrite and path.exists():  # appeared while we were writing
-        raise ConfigError(str(path), "exists; pass overwrite=True (CLI: --overwrite) to replace it")
+        raise ConfigError(str(path), f"exists; pass {option('overwrite')} to replace it")
     os.replace(source, path)
     _fsync_dir(path.parent)
 
@@ -213,13 +232,18 @@ def write_netcdf(
     overwrite: bool = False,
     compression_level: int = 4,
 ) -> Path:
-    """Write ``ds`` to ``path`` as compressed netCDF4, atomically.
+    """Write ``ds``, an ``xarray.Dataset`` such as :func:`rampwork.simulate`
+    returns (anything else is refused with ConfigError), to ``path`` as
+    compressed netCDF4, atomically.
 
     Floats get NaN as ``_FillValue``; integers get none unless their encoding,
     a ``_FillValue`` attribute or the schema specifies one. Attributes are
     flattened to netCDF-legal types (see :func:`schema.netcdf_attrs`).
     Refuses to replace an existing file unless ``overwrite``. Returns ``path``.
     """
+    if not isinstance(ds, xr.Dataset):
+        raise ConfigError("ds", f"expected an xarray.Dataset made by rampwork (rampwork.simulate, "
+                          f"rampwork.open_dataset), got {type(ds).__name__}")
     compression_level = check_compression_level(compression_level)
     path = check_writable(path, overwrite)
     prepared, encoding = _prepare(ds, compression_level)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,8 +20,8 @@ from . import schema
 from .core import kernel as K
 from .core import reduce
 from .core.variant import CLOSED_FORM, KernelVariant
-from .errors import ConfigError
-from .scene import Scene, Sweep
+from .errors import ClosedFormNotice, ConfigError, option
+from .scene import Integrator, Scene, Sweep
 
 #: refuse sweeps whose results would not fit in this share of physical memory
 MEMORY_SHARE = 0.5
@@ -100,6 +101,8 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     allowed = scene.axis_names
     for name in sweep.names:
         if name not in allowed:
+            if name in scene.ramp.spec.renamed:  # a parameter's old name
+                raise scene.ramp.spec.unknown_parameter(f"sweep.{name}", name, allowed)
             raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
     size = sweep.size
     axes = dict(sweep.axes)
@@ -151,6 +154,8 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     # f'' == 0 everywhere: f' is constant, the motion has a closed form (without drag)
     closed_form = (scene.integrator.closed_form and sign == 0
                    and not (drag_linear or drag_quadratic))
+    if closed_form:
+        _note_closed_form(scene.integrator)
     mu_k = axes.get("mu", axes.get("mu_k", (scene.friction.mu_k,)))
     paper_criterion = "x_lift_off_paper" in scene.diagnostics
     if paper_criterion and (drag_linear or drag_quadratic):
@@ -166,6 +171,16 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
         uniform_parameters=not any(name in sweep.names
                                    for name in ("g",) + spec.parameter_names))
     return RunPlan(scene, sweep, sweep.shape, size, variant)
+
+
+def _note_closed_form(integrator: Integrator) -> None:
+    """A straight ramp is solved exactly, whatever the integrator: say so
+    (once a process) where the scene asked for an integrator of its own."""
+    if integrator == Integrator():  # the default: nothing was asked for
+        return
+    warnings.warn(f"a straight ramp is solved in closed form (exact, no steps): the integrator "
+                  f"asked for ({integrator.describe()}) is not used; {option('closed_form')} "
+                  "steps with it anyway", ClosedFormNotice, stacklevel=2)
 
 
 def _check_static_friction(scene: Scene, sweep: Sweep) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import itertools
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
@@ -25,7 +26,7 @@ import numpy as np
 from . import validate
 from .core import ramps as core
 from .core.jit import jit, specialise
-from .errors import ConfigError
+from .errors import ConfigError, RenamedParameterWarning
 from .userfunctions import content_digest
 
 __all__ = [
@@ -56,6 +57,25 @@ class ParameterSpec:
     long_name: str
     constraint: str  # "finite" | "positive"
     default: float | None  # None = required
+
+
+@dataclass(frozen=True)
+class RenamedParameter:
+    """A parameter a family had under another name or meaning: scenes that
+    still give ``old`` are read as ``new = convert(value, parameters)`` (the
+    other parameters given, defaults filled in) with a
+    :class:`~rampwork.errors.RenamedParameterWarning` that says what changed;
+    a sweep over ``old`` is refused with the same explanation."""
+
+    old: str
+    new: str
+    change: str  # what changed, in words
+    convert: Callable[[float, Mapping[str, float]], float]
+    formula: str  # new = ... in words, for the messages
+
+    def explain(self, family: str) -> str:
+        return (f"the {family} family's {self.old!r} {self.change}; it is now {self.new!r} "
+                f"({self.new} = {self.formula})")
 
 
 def _fmt(value) -> str:
@@ -109,7 +129,8 @@ class RampFamily:
 
     def __init__(self, name: str, description: str, parameters: tuple[ParameterSpec, ...],
                  height, slope_curvature, *, is_straight: bool = False,
-                 data_names: tuple[str, ...] = (), cacheable: bool = True, key: str | None = None):
+                 data_names: tuple[str, ...] = (), cacheable: bool = True, key: str | None = None,
+                 renamed: tuple[RenamedParameter, ...] = ()):
         if len(parameters) > 4:
             raise ValueError("a ramp family has at most four parameters")
         self.name = name
@@ -121,6 +142,8 @@ class RampFamily:
         self.data_names = tuple(data_names)
         self.cacheable = cacheable
         self.key = key or name
+        #: old parameter names still read (see RenamedParameter), by old name
+        self.renamed = {r.old: r for r in renamed}
         self._evaluator = None
 
     def __repr__(self) -> str:
@@ -132,12 +155,19 @@ class RampFamily:
 
     # -- validation ---------------------------------------------------------
 
+    def unknown_parameter(self, where: str, name: str, allowed) -> ConfigError:
+        """The error for a parameter ``name`` this family does not have (one
+        it had under that name says what it is now)."""
+        if name in self.renamed:
+            return ConfigError(where, self.renamed[name].explain(self.name))
+        return ConfigError(where, f"unknown parameter for ramp family {self.name!r}; "
+                           f"allowed: {', '.join(allowed) or '(none)'}")
+
     def _arrays(self, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         names = self.parameter_names
         unknown = [k for k in values if k not in names]
         if unknown:
-            raise ConfigError(f"ramp.{unknown[0]}", f"unknown parameter for ramp family {self.name!r}; "
-                              f"allowed: {', '.join(names) or '(none)'}")
+            raise self.unknown_parameter(f"ramp.{unknown[0]}", unknown[0], names)
         arrays = {}
         for spec in self.parameters:
             where = f"ramp.{spec.name}"
@@ -322,6 +352,22 @@ def _circle_parameters(where: str) -> tuple[ParameterSpec, ...]:
             _p("y_centre", "m", f"y of the centre of the circle ({where})", default=0.0))
 
 
+#: the bowl stands on y = y_bottom (default 0); before, it hung from its
+#: centre at y_centre (default 0: the bottom at y = -radius)
+_BOWL_PARAMETERS = (_p("radius", "m", "radius of the circle", "positive"),
+                    _p("x_centre", "m", "x of the centre of the circle (and of the bottom)",
+                       default=0.0),
+                    _p("y_bottom", "m", "height of the lowest point of the bowl", default=0.0))
+_BOWL_Y_CENTRE = RenamedParameter(
+    "y_centre", "y_bottom", "was the height of the circle's centre (default 0 put the bottom at "
+    "y = -radius)", lambda value, params: value - params["radius"], "y_centre - radius; default 0: "
+    "the bottom at y = 0")
+_SINE_SLOPE = RenamedParameter(
+    "slope", "mean_slope", "was the downhill slope -dy/dx (y = -slope*x + ...)",
+    lambda value, params: -value, "-slope, the mean dy/dx, as straight's and quadratic's slope: "
+    "y = mean_slope*x + amplitude*sin(wavenumber*x + phase)")
+
+
 #: The registered families by name (user callables are not registered: see
 #: :meth:`Ramp.from_functions`).
 FAMILIES: dict[str, RampFamily] = {
@@ -336,21 +382,22 @@ FAMILIES: dict[str, RampFamily] = {
                     _p("slope", "1", "slope dy/dx of the ramp at x = 0", default=0.0),
                     _p("height", "m", "height of the ramp at x = 0", default=0.0)),
                    core.quadratic_height, core.quadratic_slope_curvature),
-        _Circle("circular_bowl", "lower half circle y = y_centre - sqrt(radius**2 - (x - x_centre)**2)",
-                _circle_parameters("above the bowl"),
-                core.circular_bowl_height, core.circular_bowl_slope_curvature, sign=1),
+        _Circle("circular_bowl", "lower half circle y = y_bottom + radius - sqrt(radius**2 - (x - x_centre)**2)",
+                _BOWL_PARAMETERS,
+                core.circular_bowl_height, core.circular_bowl_slope_curvature, sign=1,
+                renamed=(_BOWL_Y_CENTRE,)),
         _Circle("circular_dome", "upper half circle y = y_centre + sqrt(radius**2 - (x - x_centre)**2)",
                 _circle_parameters("below the dome"),
                 core.circular_dome_height, core.circular_dome_slope_curvature, sign=-1),
         _Cycloid("cycloid", "cycloid bowl x = radius*(u + sin u), y = radius*(1 - cos u), -pi < u < pi",
                  (_p("radius", "m", "radius of the cycloid's rolling circle", "positive"),),
                  core.cycloid_height, core.cycloid_slope_curvature),
-        _Sine("sine", "sine on a slope y = -slope*x + amplitude*sin(wavenumber*x + phase)",
-              (_p("slope", "1", "mean downhill slope -dy/dx of the ramp", default=0.0),
+        _Sine("sine", "sine on a slope y = mean_slope*x + amplitude*sin(wavenumber*x + phase)",
+              (_p("mean_slope", "1", "mean slope dy/dx of the ramp", default=0.0),
                _p("amplitude", "m", "amplitude of the sine"),
                _p("wavenumber", "m-1", "angular wavenumber of the sine"),
                _p("phase", "rad", "phase of the sine at x = 0", default=0.0)),
-              core.sine_height, core.sine_slope_curvature),
+              core.sine_height, core.sine_slope_curvature, renamed=(_SINE_SLOPE,)),
         _Spline("spline", "natural cubic spline through given points (x_points, y_points)", (),
                 core.spline_height, core.spline_slope_curvature, data_names=("x_points", "y_points")),
     )
@@ -441,7 +488,12 @@ class Ramp:
     def create(cls, family: str, domain=None, **params) -> "Ramp":
         """A validated ramp of a registered family.  ``params``: the family's
         parameters by name (defaults fill the rest); for ``"spline"``,
-        ``x_points`` and ``y_points`` (``domain`` defaults to their range)."""
+        ``x_points`` and ``y_points`` (``domain`` defaults to their range).
+
+        A ``"straight"`` ramp (or a ``"quadratic"`` of curvature 0) is solved
+        in closed form by :func:`rampwork.simulate`, exactly and without
+        steps, whatever the scene's integrator; ``Integrator(...,
+        closed_form=False)`` steps it with the integrator instead."""
         if family == CALLABLE:
             raise ConfigError("ramp.family", "callable ramps are built with Ramp.from_functions(f, fp, fpp, ...)")
         if not isinstance(family, str) or family not in FAMILIES:
@@ -449,10 +501,11 @@ class Ramp:
                               f"{', '.join(map(repr, FAMILIES))} (and user functions via Ramp.from_functions)")
         spec = FAMILIES[family]
         allowed = spec.parameter_names + spec.data_names
+        old = {name: value for name, value in params.items() if name in spec.renamed}
+        params = {name: value for name, value in params.items() if name not in spec.renamed}
         for name in params:
             if name not in allowed:
-                raise ConfigError(f"ramp.{name}", f"unknown parameter for ramp family {family!r}; "
-                                  f"allowed: {', '.join(allowed)}, domain")
+                raise spec.unknown_parameter(f"ramp.{name}", name, allowed + ("domain",))
         values = []
         for p in spec.parameters:
             where = f"ramp.{p.name}"
@@ -465,6 +518,8 @@ class Ramp:
             if p.constraint == "positive":
                 value = validate.positive(where, value)
             values.append((p.name, value))
+        if old:
+            values = _read_renamed(spec, old, set(params), values)
         shared: tuple[float, ...] = ()
         if spec.data_names:
             for name in spec.data_names:
@@ -484,9 +539,16 @@ class Ramp:
         """A ramp from user functions f(x), f'(x), f''(x) of one float (numba
         ``njit``-ed, or plain Python that numba can compile).  ``curvature_sign``
         declares the sign of f'' on the domain (+1, -1, 0 or None = unknown).
-        With ``check`` the functions are sampled on the domain: values must be
-        finite, fp and fpp must match finite differences of f and fp, and f''
-        must have the declared sign."""
+
+        The functions are sampled on the domain (257 points): their values
+        must be finite.  With ``check`` (default True) fp and fpp must also
+        match finite differences of f and fp to within an error estimate of
+        the differences (Richardson extrapolation over halved steps, so steep
+        ends near a vertical tangent pass), and f'' must have the declared
+        sign.  ``check=False`` skips those two tests, for functions whose
+        derivatives are right but that finite differences cannot resolve
+        (e.g. noisy or piecewise definitions); the kernels then trust fp and
+        fpp as given."""
         where = "ramp.curvature_sign"
         if curvature_sign is not None:
             if isinstance(curvature_sign, bool) or curvature_sign not in (-1, 0, 1):
@@ -600,23 +662,7 @@ class Ramp:
                                   f"the domain [{lo!r}, {hi!r}] must avoid vertical tangents and singularities")
         if not check:
             return
-        # derivatives against 4th-order central differences, inside the domain
-        width = hi - lo
-        step = 1e-3 * width
-        xi = np.linspace(lo + 2 * step, hi - 2 * step, 101)
-        shifted = [self.evaluate(xi + k * step) for k in (-2, -1, 1, 2)]
-        f0, fp0, fpp0 = self.evaluate(xi)
-        for label, index, exact in (("fp", 0, fp0), ("fpp", 1, fpp0)):
-            g = [s[index] for s in shifted]
-            fd = (g[0] - 8 * g[1] + 8 * g[2] - g[3]) / (12 * step)
-            scale = np.max(np.abs(exact)) + np.ptp(np.concatenate([s[index] for s in shifted])) / width
-            tol = 1e-4 * scale + 1e-12 * np.max(np.abs(g)) / step
-            bad = np.abs(fd - exact) > tol
-            if bad.any():
-                i = int(np.argmax(np.abs(fd - exact) - tol))
-                of = "f" if label == "fp" else "fp"
-                raise ConfigError(f"ramp.{label}", f"does not match the derivative of {of}: at x = {_fmt(xi[i])} "
-                                  f"{label} = {_fmt(exact[i])} but finite differences give {_fmt(fd[i])}")
+        self._check_derivatives()
         if curvature_sign is not None:
             scale = np.max(np.abs(fpp)) * 1e-12
             ok = {1: fpp >= -scale, -1: fpp <= scale, 0: np.abs(fpp) <= scale}[curvature_sign]
@@ -625,8 +671,66 @@ class Ramp:
                 raise ConfigError("ramp.curvature_sign", f"declared {curvature_sign:+d} but fpp({_fmt(x[i])}) = "
                                   f"{_fmt(fpp[i])}")
 
+    def _check_derivatives(self, points: int = 101, levels: int = 8, safety: float = 4.0,
+                           rtol: float = 1e-6) -> None:
+        """fp and fpp against finite differences of f and fp, with an error
+        estimate (Richardson): at each point, fourth-order central differences
+        with steps h, h/2, ... h/2**(levels-1), the stencil inside the domain;
+        the two consecutive steps whose results agree best give the estimate,
+        and their difference plus the rounding error of the differences bounds
+        its error.  A derivative is refused where it differs from the estimate
+        by more than ``safety`` such bounds plus ``rtol`` times its largest
+        size on the domain: steep ends (near a vertical tangent, a
+        singularity of f'') widen the bound instead of failing the check."""
+        lo, hi = self.domain
+        x = np.linspace(lo, hi, points)[1:-1]
+        # the stencil x +- 2h stays in [lo, hi]
+        first = np.minimum(1e-2 * (hi - lo), 0.5 * np.minimum(x - lo, hi - x))
+        exact = self.evaluate(x)
+        eps = np.finfo(np.float64).eps
+        columns = np.arange(x.size)
+        for label, index in (("fp", 1), ("fpp", 2)):
+            estimates, rounding = [], []
+            for level in range(levels):
+                h = first / 2.0**level
+                g = [self.evaluate(x + k * h)[index - 1] for k in (-2, -1, 1, 2)]
+                estimates.append((g[0] - 8 * g[1] + 8 * g[2] - g[3]) / (12 * h))
+                rounding.append(eps * (np.abs(g[0]) + 8 * np.abs(g[1]) + 8 * np.abs(g[2])
+                                       + np.abs(g[3])) / (12 * h))
+            estimates, rounding = np.array(estimates), np.array(rounding)
+            error = np.abs(np.diff(estimates, axis=0)) + rounding[1:] + rounding[:-1]
+            best = np.argmin(error, axis=0)
+            estimate, bound = estimates[best + 1, columns], error[best, columns]
+            value = exact[index]
+            tolerance = safety * bound + rtol * np.max(np.abs(value))
+            bad = ~(np.abs(estimate - value) <= tolerance)
+            if bad.any():
+                i = int(np.argmax(np.where(bad, np.abs(estimate - value) - tolerance, -np.inf)))
+                of = "f" if label == "fp" else "fp"
+                raise ConfigError(f"ramp.{label}", f"does not match the derivative of {of}: at x = "
+                                  f"{_fmt(x[i])} {label} = {_fmt(value[i])} but finite differences "
+                                  f"give {_fmt(estimate[i])} (+- {bound[i]:.2g}); if {label} is "
+                                  "right, pass check=False to skip this test")
+
 
 _CALLABLE_COUNTER = itertools.count(1)
+
+
+def _read_renamed(spec: RampFamily, old: Mapping, given: set, values: list) -> list:
+    """``values`` (name, value) with the parameters given under their old
+    names converted to the new ones, each with a warning that says how."""
+    params = dict(values)
+    for name, raw in old.items():
+        renamed = spec.renamed[name]
+        where = f"ramp.{name}"
+        if renamed.new in given:
+            raise ConfigError(where, f"{renamed.explain(spec.name)}: give {renamed.new} alone")
+        value = renamed.convert(validate.real(where, raw), params)
+        params[renamed.new] = value
+        warnings.warn(f"{where}: {renamed.explain(spec.name)}: read as {renamed.new} = {value!r}; "
+                      f"write that instead (the old name will be refused in a later version)",
+                      RenamedParameterWarning, stacklevel=3)
+    return [(name, params[name]) for name, _ in values]
 
 
 def _as_dispatcher(label: str, function):
@@ -649,8 +753,11 @@ def quadratic(curvature, slope=0.0, height=0.0, *, domain) -> Ramp:
     return Ramp.create("quadratic", domain=domain, curvature=curvature, slope=slope, height=height)
 
 
-def circular_bowl(radius, x_centre=0.0, y_centre=0.0, *, domain) -> Ramp:
-    return Ramp.create("circular_bowl", domain=domain, radius=radius, x_centre=x_centre, y_centre=y_centre)
+def circular_bowl(radius, x_centre=0.0, *, y_bottom=None, domain, **old) -> Ramp:
+    """The lower half circle whose lowest point is (x_centre, y_bottom); ``old``:
+    ``y_centre``, read with a warning (see :class:`RenamedParameter`)."""
+    bottom = {} if y_bottom is None else {"y_bottom": y_bottom}
+    return Ramp.create("circular_bowl", domain=domain, radius=radius, x_centre=x_centre, **bottom, **old)
 
 
 def circular_dome(radius, x_centre=0.0, y_centre=0.0, *, domain) -> Ramp:
@@ -661,9 +768,12 @@ def cycloid(radius, *, domain) -> Ramp:
     return Ramp.create("cycloid", domain=domain, radius=radius)
 
 
-def sine(amplitude, wavenumber, slope=0.0, phase=0.0, *, domain) -> Ramp:
-    return Ramp.create("sine", domain=domain, slope=slope, amplitude=amplitude, wavenumber=wavenumber,
-                       phase=phase)
+def sine(amplitude, wavenumber, *, mean_slope=None, phase=0.0, domain, **old) -> Ramp:
+    """y = mean_slope*x + amplitude*sin(wavenumber*x + phase); ``old``: ``slope``
+    (the downhill slope, -mean_slope), read with a warning (see :class:`RenamedParameter`)."""
+    slope = {} if mean_slope is None else {"mean_slope": mean_slope}
+    return Ramp.create("sine", domain=domain, amplitude=amplitude, wavenumber=wavenumber, phase=phase,
+                       **slope, **old)
 
 
 def spline(x_points, y_points, *, domain=None) -> Ramp:

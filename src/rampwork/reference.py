@@ -126,8 +126,10 @@ def ramp_functions(ramp: Ramp) -> tuple[Callable[[float], float], Callable[[floa
         c, b, h = p["curvature"], p["slope"], p["height"]
         return (lambda x: h + b * x + 0.5 * c * x * x), (lambda x: (b + c * x, c))
     if family in ("circular_bowl", "circular_dome"):
-        r, xc, yc = p["radius"], p["x_centre"], p["y_centre"]
-        sign = -1.0 if family == "circular_bowl" else 1.0  # y = yc + sign sqrt(R^2 - d^2)
+        r, xc = p["radius"], p["x_centre"]
+        # y = yc + sign sqrt(R^2 - d^2); the bowl's centre is radius above its bottom
+        yc = p["y_bottom"] + r if family == "circular_bowl" else p["y_centre"]
+        sign = -1.0 if family == "circular_bowl" else 1.0
 
         def f(x):
             d = x - xc
@@ -141,9 +143,9 @@ def ramp_functions(ramp: Ramp) -> tuple[Callable[[float], float], Callable[[floa
 
         return f, sc
     if family == "sine":
-        slope, amp, k, phase = p["slope"], p["amplitude"], p["wavenumber"], p["phase"]
-        return ((lambda x: -slope * x + amp * math.sin(k * x + phase)),
-                (lambda x: (-slope + amp * k * math.cos(k * x + phase), -amp * k * k * math.sin(k * x + phase))))
+        slope, amp, k, phase = p["mean_slope"], p["amplitude"], p["wavenumber"], p["phase"]
+        return ((lambda x: slope * x + amp * math.sin(k * x + phase)),
+                (lambda x: (slope + amp * k * math.cos(k * x + phase), -amp * k * k * math.sin(k * x + phase))))
     if family == "cycloid":
         r = p["radius"]
 

@@ -253,6 +253,13 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     optional callable ``progress(done, total)`` called after each chunk.
     ``kernel``: ``"auto"`` (default, or ``RAMPWORK_KERNEL``), ``"general"``
     or ``"specialised"`` (see :mod:`rampwork.kernels`; results are equal).
+
+    A straight ramp (f'' = 0 on the whole domain, no air drag) is solved in
+    closed form, exact to rounding, whatever ``scene.integrator`` says:
+    ``Integrator(method, ..., closed_form=False)`` steps with the method
+    instead (to measure its error).  The dataset says which ran
+    (``integrator_used``, ``kernel_closed_form``), and a scene that asks for
+    an integrator of its own gets a one-time :class:`~rampwork.errors.ClosedFormNotice`.
     """
     plan = plan_run(scene, sweep)
     requested = kernels.requested_tier(kernel)  # a bad tier is refused before any work
@@ -370,7 +377,7 @@ def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
     traced_values = [axis_values(plan, int(j), int(j) + 1) for j in indices]
     for name in plan.sweep.names:
         coords[f"traced_{name}"] = (dims[0], np.array([values[name][0] for values in traced_values]),
-                                    {"long_name": f"{name} of the traced trajectory"})
+                                    schema.traced_attrs(name, plan.scene.ramp.spec.parameters))
     return xr.Dataset(data_vars, coords=coords)
 
 
@@ -398,14 +405,19 @@ def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
                kernel_tier: str = "specialised") -> dict:
     """The dataset's global attributes (``entry``: what made it, for history)."""
     scene = plan.scene
+    closed_form = plan.variant.closed_form
+    how = (f"closed form (straight ramp; {scene.integrator.method} not used)" if closed_form
+           else scene.integrator.describe())
     return schema.global_attrs(
         scene.title,
         scene_text(scene, plan.sweep),
-        f"{entry}: {plan.size} trajectories, {scene.integrator.describe()}",
+        f"{entry}: {plan.size} trajectories, {how}",
         {
             "ramp_family": scene.ramp.family,
             "ramp_domain": np.array(scene.ramp.domain),
             **{f"integrator_{key}": value for key, value in scene.integrator.settings().items()},
+            # what integrated: a straight ramp's closed form instead of the integrator asked for
+            "integrator_used": "closed_form" if closed_form else scene.integrator.method,
             "integrator_order": scene.integrator.order,
             "integrator_adaptive": int(scene.integrator.adaptive),
             "t_max": scene.t_max,

@@ -222,7 +222,11 @@ class Scene:
             if not isinstance(getattr(self, name), kind):
                 raise ConfigError(name, f"expected a rampwork.{kind.__name__}, got {getattr(self, name)!r}")
         if self.x0 is not None:
-            object.__setattr__(self, "x0", validate.real("x0", self.x0))
+            x0 = validate.real("x0", self.x0)
+            lo, hi = self.ramp.domain
+            if not lo <= x0 <= hi:  # refused here, not later by simulate
+                raise ConfigError("x0", f"{x0!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
+            object.__setattr__(self, "x0", x0)
         object.__setattr__(self, "v0", validate.real("v0", self.v0))
         object.__setattr__(self, "m", validate.positive("m", self.m))
         object.__setattr__(self, "g", validate.positive("g", self.g))
@@ -237,6 +241,13 @@ class Scene:
         object.__setattr__(self, "diagnostics", tuple(dict.fromkeys(self.diagnostics)))
         if not isinstance(self.title, str):
             raise ConfigError("title", f"expected a string, got {self.title!r}")
+        dt = self.integrator.dt
+        if dt is not None and not dt < t_max:
+            # a step of t_max or more is not a step of the motion (dt_max may
+            # exceed t_max: a bound on steps, which t_max then bounds)
+            what = "the first step" if self.integrator.adaptive else "the step"
+            raise ConfigError("integrator.dt", f"{what} {dt!r} s must be shorter than t_max = "
+                              f"{t_max!r} s (the longest a trajectory runs)")
         if (not self.integrator.adaptive
                 and t_max / self.integrator.dt > MAX_STEPS_PER_TRAJECTORY):
             raise ConfigError("t_max", f"t_max / dt = {t_max / self.integrator.dt:.3g} steps per "

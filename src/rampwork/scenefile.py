@@ -412,11 +412,12 @@ def _ramp(table: dict) -> Ramp:
         raise ConfigError("ramp.family", f"unknown ramp family {_short(family)}; allowed: {', '.join(FAMILIES)}")
     spec = FAMILIES[family]
     allowed = ("family", "domain") + spec.parameter_names + spec.data_names
-    _check_keys("ramp", table, allowed)
+    _check_keys("ramp", {key: value for key, value in table.items() if key not in spec.renamed},
+                allowed)
     kwargs: dict[str, Any] = {}
     if "domain" in table:
         kwargs["domain"] = tuple(_numbers("ramp.domain", table["domain"], 2))
-    for name in spec.parameter_names:
+    for name in spec.parameter_names + tuple(spec.renamed):  # old names: read with a warning
         if name in table:
             kwargs[name] = _number(f"ramp.{name}", table[name], sweepable=True)
     for name in spec.data_names:
@@ -519,6 +520,8 @@ def _sweep(table, scene: Scene) -> Sweep:
     allowed = scene.axis_names
     for name in axes:
         if name not in allowed:
+            if name in scene.ramp.spec.renamed:  # a parameter's old name
+                raise scene.ramp.spec.unknown_parameter(f"sweep.axes.{name}", name, allowed)
             raise ConfigError("[sweep.axes]", f"unknown axis {_short(name)}; allowed: {', '.join(allowed)}")
     plans = {name: _axis_length(f"sweep.axes.{name}", spec, random) for name, spec in axes.items()}
 

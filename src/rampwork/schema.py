@@ -39,6 +39,7 @@ __all__ = [
     "STATUS_FLAG_DESCRIPTIONS",
     "CONVENTIONS",
     "axis_spec",
+    "traced_attrs",
     "spec_attrs",
     "output_attrs",
     "empty_output",
@@ -328,6 +329,13 @@ def axis_spec(name: str, ramp_parameters: Iterable[Any] = ()) -> VariableSpec:
             )
     allowed = list(AXES) + [p.name for p in params]
     raise ConfigError(f"axis {name!r}", f"unknown axis; allowed: {', '.join(allowed)}")
+
+
+def traced_attrs(name: str, ramp_parameters: Iterable[Any] = ()) -> dict[str, Any]:
+    """CF attributes of the trace coordinate ``traced_<name>``: sweep axis
+    ``name``'s value for each recorded trajectory, in the axis's units."""
+    spec = axis_spec(name, ramp_parameters)
+    return {"units": spec.units, "long_name": f"{spec.long_name} of the traced trajectory"}
 
 
 def spec_attrs(spec: VariableSpec) -> dict[str, Any]:

@@ -36,7 +36,7 @@ import xarray as xr
 
 from . import io, runner, schema
 from ._version import __version__
-from .errors import ConfigError
+from .errors import ConfigError, option
 from .scene import Scene, Sweep
 
 __all__ = ["run_to_file", "SweepToFile", "ChunkLayout", "partial_path"]
@@ -150,9 +150,9 @@ class SweepToFile:
             if resume:
                 self._read_partial(chunk_size)
             elif not overwrite:
-                raise ConfigError(str(self.partial), "holds an unfinished run of this output; pass "
-                                  "resume=True (CLI: --resume) to finish it, or overwrite=True "
-                                  "(CLI: --overwrite) to start over")
+                raise ConfigError(str(self.partial), f"holds an unfinished run of this output; pass "
+                                  f"{option('resume')} to finish it, or {option('overwrite')} "
+                                  "to start over")
         if self.layout.count > MAX_CHUNKS:
             raise ConfigError("chunk_size", f"{chunk_size!r} cuts {self.plan.size:,} trajectories into "
                               f"{self.layout.count:,} chunks, more than {MAX_CHUNKS:,}; use larger chunks")
@@ -167,10 +167,10 @@ class SweepToFile:
                 run_seconds = float(nc.getncattr(RUN_TIME_ATTR))
         except (OSError, AttributeError, KeyError, ValueError, RuntimeError) as error:
             raise ConfigError(where, f"cannot be resumed ({' '.join(str(error).split())}); remove it "
-                              "or pass overwrite=True (CLI: --overwrite) to start over") from None
+                              f"or pass {option('overwrite')} to start over") from None
         if digest != self.digest:
             raise ConfigError(where, "was started by a different scene, sweep or rampwork version; "
-                              "refusing to resume: pass overwrite=True (CLI: --overwrite) to start over")
+                              f"refusing to resume: pass {option('overwrite')} to start over")
         layout = ChunkLayout(self.layout.shape, axis, rows)
         if chunk_size is not None and layout != self.layout:
             raise ConfigError("chunk_size", f"{chunk_size} differs from the partial run's chunks "

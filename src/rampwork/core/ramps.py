@@ -62,9 +62,12 @@ def quadratic_slope_curvature(x, p0, p1, p2, p3, shared):
 
 
 # ---------------------------------------------------------------------------
-# circles: p0 = radius R, p1 = x_centre, p2 = y_centre; d = x - x_centre.
+# circles: p0 = radius R, p1 = x_centre; p2 = y_bottom (the bowl's lowest
+# point) or y_centre (the dome's centre); d = x - x_centre.
 # R^2 - d^2 is formed as (R - d)(R + d) with d = x - x_centre carried exactly
 # as d_hi + d_lo (Knuth's TwoSum): ~1 ulp right up to the tangent points.
+# The bowl's height above its bottom, R - sqrt(R^2 - d^2), is formed as
+# d^2 / (R + sqrt(R^2 - d^2)): no cancellation near the bottom.
 
 
 @jit
@@ -79,7 +82,7 @@ def _circle_q(x, r, xc):
 @jit
 def circular_bowl_height(x, p0, p1, p2, p3, shared):
     d, q = _circle_q(x, p0, p1)
-    return p2 - math.sqrt(q)
+    return p2 + d * d / (p0 + math.sqrt(q))
 
 
 @jit
@@ -228,19 +231,19 @@ def cycloid_parameter(x, r):
 
 
 # ---------------------------------------------------------------------------
-# sine on a slope: y = -slope*x + amplitude*sin(wavenumber*x + phase)
-# p0 = slope, p1 = amplitude, p2 = wavenumber, p3 = phase
+# sine on a slope: y = mean_slope*x + amplitude*sin(wavenumber*x + phase)
+# p0 = mean_slope (dy/dx), p1 = amplitude, p2 = wavenumber, p3 = phase
 
 
 @jit
 def sine_height(x, p0, p1, p2, p3, shared):
-    return -p0 * x + p1 * math.sin(p2 * x + p3)
+    return p0 * x + p1 * math.sin(p2 * x + p3)
 
 
 @jit
 def sine_slope_curvature(x, p0, p1, p2, p3, shared):
     theta = p2 * x + p3
-    return -p0 + p1 * p2 * math.cos(theta), -p1 * p2 * p2 * math.sin(theta)
+    return p0 + p1 * p2 * math.cos(theta), -p1 * p2 * p2 * math.sin(theta)
 
 
 # ---------------------------------------------------------------------------
