@@ -42,6 +42,8 @@ x0 with curvature (S2 = 0.09 +/- 0.03), the potential energy's product.
 
     python studies/sensitivity_excess_work.py            # ~7 s with the kernel cached
     python studies/sensitivity_excess_work.py --full --gallery    # ~30 s, 2 GB (bootstrap)
+
+Writes studies/output/sensitivity_excess_work.nc and .png (and the .pdf with --pdf).
 """
 
 from __future__ import annotations
