@@ -20,6 +20,7 @@ from .ramps import FAMILIES, Ramp
 from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
 from .runner import simulate
 from .streaming import run_to_file
+from .zarrstore import write_zarr
 
 __all__ = [
     "__version__",
@@ -37,4 +38,5 @@ __all__ = [
     "run_to_file",
     "simulate",
     "write_netcdf",
+    "write_zarr",
 ]
