@@ -30,7 +30,7 @@ def _store_listing(path):
 
 
 def _done_record(partial):
-    return np.asarray(zarr.open_array(str(partial / zarrstore.DONE_ARRAY), mode="r")[:]) != 0
+    return np.asarray(zarr.open_array(str(partial / zarrstore.DONE_ARRAY), mode="r")[:]) >= 0
 
 
 # ------------------------------------------------------------------------------
@@ -99,6 +99,23 @@ def test_an_unknown_suffix_is_refused_before_any_work(tmp_path, name, monkeypatc
     assert ".nc" in error.value.problem and ".zarr" in error.value.problem and "\n" not in str(error.value)
     assert list(tmp_path.iterdir()) == []
     assert io.output_format(tmp_path / "x.NC") == "netcdf" and io.output_format("y.Zarr") == "zarr"
+
+
+def test_cli_refuses_an_unknown_suffix_and_missing_zarr_with_one_line(tmp_path, capsys, monkeypatch):
+    from rampwork.cli import example_text, main
+
+    scene = tmp_path / "straight.toml"
+    scene.write_text(example_text("straight"), encoding="utf-8")
+    monkeypatch.setattr(runner, "prepare", lambda *a, **k: pytest.fail("work started"))
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"rampwork: error: {tmp_path / 'out.csv'}: suffix '.csv'") and "\n" not in err
+    assert ".zarr" in err and ".nc" in err
+    monkeypatch.setitem(sys.modules, "zarr", None)  # as if zarr were not installed
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.zarr")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "pip install 'rampwork[zarr]'" in err and "\n" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["straight.toml"]
 
 
 # ------------------------------------------------------------------------------

@@ -31,6 +31,7 @@ import os
 import re
 import shutil
 import signal
+import socket
 import warnings
 from pathlib import Path
 from typing import Any
@@ -44,7 +45,9 @@ from .errors import ConfigError
 
 __all__ = ["write_zarr", "open_store", "ZarrChunkStore", "ZarrChunkWriter", "DONE_ARRAY"]
 
-#: the partial store's record of the chunks done: uint8, one object per chunk
+#: the partial store's record of the chunks done, one object per chunk: the
+#: chunk's trajectory steps (so the client never reads the results back), -1
+#: where it is not done
 DONE_ARRAY = "rampwork_chunks_done"
 #: zarr's temporary objects (``KEY.<uuid hex>.partial``) that a killed writer leaves
 _TEMPORARY = re.compile(r"\.[0-9a-f]{32}\.partial$")
@@ -105,27 +108,42 @@ def _consolidate(root: Path) -> None:
         zarr.consolidate_metadata(str(root))
 
 
-def _fsync(paths) -> None:
-    for path in paths:
-        try:
-            io.fsync_file(path)
-        except FileNotFoundError:  # zarr omits a chunk of fill values
-            pass
+_SYNC_POOL = None
+
+
+def _fsync(paths, directory: bool = False) -> None:
+    """fsync ``paths`` side by side: the file system commits them together
+    (a chunk's 19 objects: about 25 ms, against 150 ms one after the other)."""
+    global _SYNC_POOL
+    if _SYNC_POOL is None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _SYNC_POOL = ThreadPoolExecutor(8, thread_name_prefix="rampwork-fsync")
+    sync = (lambda path: io._fsync_dir(Path(path))) if directory else _fsync_one
+    for _ in _SYNC_POOL.map(sync, list(paths)):
+        pass
+
+
+def _fsync_one(path) -> None:
+    try:
+        io.fsync_file(path)
+    except FileNotFoundError:  # zarr omits a chunk of fill values
+        pass
 
 
 def _finish_tree(root: Path) -> None:
     """Remove a killed writer's temporary objects; push every file and
     directory of the store to the disk."""
-    directories = []
+    directories, kept = [], []
     for folder, _, files in os.walk(root):
         directories.append(folder)
         for name in files:
             if _TEMPORARY.search(name):
                 os.unlink(os.path.join(folder, name))
             else:
-                io.fsync_file(os.path.join(folder, name))
-    for folder in reversed(directories):
-        io._fsync_dir(Path(folder))
+                kept.append(os.path.join(folder, name))
+    _fsync(kept)
+    _fsync(directories, directory=True)
 
 
 def remove_tree(path: Path) -> None:
@@ -204,7 +222,7 @@ class ZarrChunkWriter:
     holds it (pickled to Dask workers: a path)."""
 
     def __init__(self, root: str):
-        self.root = root
+        self.root = os.path.abspath(root)  # the same on every worker of a shared file system
         self._arrays = {}
 
     def __getstate__(self):
@@ -213,6 +231,9 @@ class ZarrChunkWriter:
     def _array(self, name: str):
         if name not in self._arrays:
             zarr = _require(self.root)
+            if not os.path.isdir(os.path.join(self.root, name)):
+                raise ConfigError(self.root, f"has no array {name!r} here ({socket.gethostname()}): a "
+                                  "store that Dask workers write must be on a file system they all see")
             # every chunk written, fill values or not: an object always holds its last write
             self._arrays[name] = (zarr.open_array(os.path.join(self.root, name), mode="r+")
                                   .with_config({"write_empty_chunks": True}))
@@ -229,9 +250,8 @@ class ZarrChunkWriter:
             if k == 0 and os.environ.get(KILL_ENV):
                 _kill_for_test(index)
         _fsync(files)  # the data reach the disk before the mark that says they are there
-        for folder in {os.path.dirname(file) for file in files}:
-            io._fsync_dir(Path(folder))
-        self._array(DONE_ARRAY)[index] = 1
+        _fsync({os.path.dirname(file) for file in files}, directory=True)
+        self._array(DONE_ARRAY)[index] = int(np.sum(results["steps"], dtype=np.int64))
 
     def _chunk_file(self, name: str, array, where: tuple) -> str:
         coords = []
@@ -274,7 +294,7 @@ class ZarrChunkStore:
             self._open_group()
             attrs = self.group.attrs.asdict()
             axis, rows = (int(v) for v in attrs[LAYOUT_ATTR])
-            done = np.asarray(self.group[DONE_ARRAY][:]) != 0
+            done = np.asarray(self.group[DONE_ARRAY][:]) >= 0
             return PartialRun(str(attrs[DIGEST_ATTR]), axis, rows, done, float(attrs[RUN_TIME_ATTR]))
         except Exception as error:  # noqa: BLE001 - zarr's errors too: not resumable
             raise resume_error(self.partial, error) from None
@@ -289,16 +309,18 @@ class ZarrChunkStore:
                                                          chunks=chunksizes.get(name, var.shape)), var.attrs)
         template.attrs = dict(attrs)
         prepared, encoding = _encoding(template, self.compression_level, chunksizes)
+        for name in deferred:  # the writers store values as they are: no CF encoding may apply
+            fill = encoding[name].get("_FillValue")
+            if set(encoding[name]) - {"_FillValue", "chunks", "compressors"} or not (
+                    fill is None or (prepared[name].dtype.kind == "f" and np.isnan(fill))):
+                raise RuntimeError(f"{name}: encoding {encoding[name]} would change the stored values")
         remove_tree(self.partial)  # a stale one: overwrite was asked for
         try:
             prepared.to_zarr(self.partial, mode="w-", compute=False, encoding=encoding,
                              consolidated=False, zarr_format=3)
             self._open_group()
-            record = self.group.create_array(DONE_ARRAY, shape=(len(done),), chunks=(1,), dtype="uint8",
-                                             fill_value=0, compressors=None,
-                                             dimension_names=["rampwork_chunk"])
-            if done.any():
-                record[np.flatnonzero(done)] = 1
+            self.group.create_array(DONE_ARRAY, shape=(len(done),), chunks=(1,), dtype="int64",
+                                    fill_value=-1, compressors=None, dimension_names=["rampwork_chunk"])
             _finish_tree(self.partial)
         except BaseException:
             remove_tree(self.partial)
@@ -320,10 +342,13 @@ class ZarrChunkStore:
         self.group.attrs.update({RUN_TIME_ATTR: float(run_seconds)})
 
     def steps(self, wheres) -> int:
-        steps = self.group["steps"]
-        return sum(int(np.asarray(steps[where], dtype=np.int64).sum()) for where in wheres)
+        return int(np.asarray(self.group[DONE_ARRAY][:]).clip(0).sum())  # the writers' own sums
 
     def finalise(self, attrs: dict[str, Any], traces) -> None:
+        missing = int((np.asarray(self.group[DONE_ARRAY][:]) < 0).sum())
+        if missing:  # reported done by workers that did not write here
+            raise ConfigError(str(self.partial), f"{missing} chunks reported done are not marked in it: "
+                              "a store that Dask workers write must be on a file system they all see")
         if traces is not None:
             prepared, encoding = _encoding(traces, self.compression_level)
             prepared.to_zarr(self.partial, mode="a", encoding=encoding, consolidated=False, zarr_format=3)
