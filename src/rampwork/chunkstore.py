@@ -82,7 +82,8 @@ class ChunkStore(Protocol):
         (``done``: every chunk's state), and the run time so far."""
 
     def steps(self, wheres) -> int:
-        """The sum of ``steps`` over the written chunks at ``wheres``."""
+        """The sum of ``steps`` over the written chunks at ``wheres`` (a
+        store that keeps each chunk's count, as the Zarr store does, sums those)."""
 
     def finalise(self, attrs: dict, traces: xr.Dataset | None) -> None:
         """Replace the bookkeeping with the run's own attributes, add the
