@@ -21,6 +21,7 @@ from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
 from .runner import simulate
 from .sensitivity import sobol_indices
 from .streaming import run_to_file
+from .zarrstore import write_zarr
 
 __all__ = [
     "__version__",
@@ -39,4 +40,5 @@ __all__ = [
     "simulate",
     "sobol_indices",
     "write_netcdf",
+    "write_zarr",
 ]

@@ -45,6 +45,7 @@ examples:
   rampwork example bowl_reversals > bowl.toml
   rampwork check bowl.toml               validate, count trajectories
   rampwork run bowl.toml -o bowl.nc      simulate and write netCDF
+  rampwork run bowl.toml -o bowl.zarr    the same as a Zarr store
   rampwork run bowl.toml -o bowl.nc --overwrite --set integrator.dt=1e-4
   rampwork info bowl.nc                  summarise a result file
 
@@ -325,8 +326,7 @@ def _check_output_is_not_an_input(args) -> None:
 
 
 def cmd_run(args) -> int:
-    import xarray as xr
-
+    from . import io
     from .streaming import SweepToFile
 
     args.threads = _positive_int("--threads", args.threads)
@@ -359,7 +359,7 @@ def cmd_run(args) -> int:
         raise
     if args.quiet:
         return EXIT_OK
-    with xr.open_dataset(output, engine="netcdf4", decode_times=False) as dataset:
+    with io.open_lazily(output) as dataset:
         attrs = dict(dataset.attrs)
         counts = _status_counts(dataset["status"].values)  # one byte a trajectory
     run_s = float(attrs.get("run_time_s", float("nan")))
@@ -490,7 +490,9 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                     "trajectory-steps per second, end statuses.")
     run.add_argument("scene", metavar="SCENE.toml", help=f"scene file (see `{prog} example`)")
     run.add_argument("-o", "--output", metavar="OUT.nc", required=True,
-                     help="netCDF file to write (required); its directory must exist")
+                     help="netCDF file to write (required; .nc, .nc4, .netcdf or .cdf), or a Zarr "
+                          "store (.zarr: each chunk written where it is computed, by a Dask worker "
+                          "too); its directory must exist")
     run.add_argument("--overwrite", action="store_true",
                      help="replace OUT.nc if it exists (default: refuse, exit status 2)")
     run.add_argument("--threads", metavar="N", default=None,
@@ -534,11 +536,12 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     example.set_defaults(handler=cmd_example)
 
     info = commands.add_parser(
-        "info", help="summarise a rampwork netCDF file", formatter_class=fmt,
+        "info", help="summarise a rampwork netCDF file or Zarr store", formatter_class=fmt,
         description="Print a rampwork result file's title, provenance, dimensions, coordinates "
                     "and variables with their units, end-status counts, timing and the stored "
                     "scene (a scene file that reproduces the run).")
-    info.add_argument("dataset", metavar="DATASET.nc", help=f"netCDF file written by `{prog} run`")
+    info.add_argument("dataset", metavar="DATASET.nc", help=f"netCDF file (or .zarr store) written by "
+                      f"`{prog} run`")
     info.add_argument("--no-scene", action="store_true", help="do not print the stored scene "
                       "(default: print it)")
     info.set_defaults(handler=cmd_info)

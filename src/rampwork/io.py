@@ -1,8 +1,10 @@
-"""netCDF writing and reading of rampwork datasets.
+"""netCDF writing and reading of rampwork datasets, and the choice of format.
 
 Files are netCDF4 (HDF5) written by xarray's ``netcdf4`` engine, every numeric
 variable zlib-compressed and chunked to about 1 MiB, written atomically (temp
-file in the same directory, fsync, ``os.replace``).
+file in the same directory, fsync, ``os.replace``). An output path ending in
+``.zarr`` is a Zarr store instead (:mod:`rampwork.zarrstore`), with the same
+variables, attributes and encodings: :func:`output_format` decides.
 """
 
 from __future__ import annotations
@@ -22,13 +24,39 @@ from rampwork import schema
 from rampwork.errors import ConfigError, option
 
 __all__ = ["write_netcdf", "open_dataset", "check_writable", "temp_path", "define_variables",
-           "set_attributes", "replace_file", "CHUNK_BYTES"]
+           "set_attributes", "replace_file", "output_format", "CHUNK_BYTES", "NETCDF_SUFFIXES",
+           "ZARR_SUFFIX"]
 
 #: target size of one HDF5 chunk of a large variable
 CHUNK_BYTES = 1 << 20
 
 _ENGINE = "netcdf4"
 _FORMAT = "NETCDF4"
+
+#: output suffixes (any case) of the two formats; netCDF is the default format
+NETCDF_SUFFIXES = (".nc", ".nc4", ".netcdf", ".cdf")
+ZARR_SUFFIX = ".zarr"
+
+
+def output_format(path: str | os.PathLike) -> str:
+    """``"netcdf"`` or ``"zarr"``, by ``path``'s suffix; a one-line
+    ConfigError for any other suffix (or none)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ZARR_SUFFIX:
+        return "zarr"
+    if suffix in NETCDF_SUFFIXES:
+        return "netcdf"
+    got = f"suffix {path.suffix!r}" if path.suffix else "no suffix"
+    raise ConfigError(str(path), f"{got}: the output format is chosen by the suffix, "
+                      f"{' '.join(NETCDF_SUFFIXES)} for netCDF (the default format) or "
+                      f"{ZARR_SUFFIX} for a Zarr store")
+
+
+def is_zarr_store(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a directory holding a Zarr store (v3 or v2)."""
+    path = Path(path)
+    return path.is_dir() and any((path / name).is_file() for name in ("zarr.json", ".zgroup", ".zarray"))
 
 
 def _one_line(text: Any) -> str:
@@ -41,12 +69,14 @@ def temp_path(path: str | os.PathLike) -> Path:
     return path.with_name(f".{path.name}.tmp-{os.getpid()}")
 
 
-def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
+def check_writable(path: str | os.PathLike, overwrite: bool = False, *, store: bool = False) -> Path:
     """Raise a one-line ConfigError unless ``path`` can be written.
 
     Cheap enough to call before a long run: checks the parent directory
     exists and is writable (by creating and removing a probe file), and that
-    ``path`` does not exist unless ``overwrite``. Returns ``path`` as a Path.
+    ``path`` does not exist unless ``overwrite``. ``store``: ``path`` is a
+    Zarr store (a directory), and an existing one may be replaced; any other
+    directory never is. Returns ``path`` as a Path.
     """
     path = Path(path)
     where = str(path)
@@ -57,8 +87,9 @@ def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
         raise ConfigError(where, f"directory {str(parent)!r} does not exist")
     if not parent.is_dir():
         raise ConfigError(where, f"{str(parent)!r} is not a directory")
-    if path.is_dir():
-        raise ConfigError(where, "is a directory")
+    if path.is_dir() and not (store and is_zarr_store(path)):
+        raise ConfigError(where, "is a directory" + (" that is not a Zarr store; refusing to replace it"
+                                                    if store else ""))
     if path.exists() and not overwrite:
         raise ConfigError(where, f"exists; pass {option('overwrite')} to replace it")
     if not os.access(parent, os.W_OK | os.X_OK):
@@ -273,23 +304,41 @@ def _fsync_dir(directory: Path) -> None:
         os.close(fd)
 
 
+def _is_zarr(path: Path) -> bool:
+    return path.suffix.lower() == ZARR_SUFFIX or is_zarr_store(path)
+
+
+def open_lazily(path: str | os.PathLike) -> xr.Dataset:
+    """Open a result file or store without loading its values (close it, or
+    use ``with``); no checks: see :func:`open_dataset`."""
+    path = Path(path)
+    engine = "zarr" if _is_zarr(path) else _ENGINE
+    return xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False, chunks=None)
+
+
 def open_dataset(path: str | os.PathLike) -> xr.Dataset:
-    """Load a rampwork netCDF file into memory (the file is closed on return).
+    """Load a rampwork netCDF file, or Zarr store, into memory (the file is
+    closed on return).
 
     ``status`` stays int8 with its flag attributes. Raises ConfigError for a
-    missing file, a file netCDF cannot read, or one that is not a rampwork
-    dataset (no ``rampwork_scene`` global attribute).
+    missing file, a file netCDF (or Zarr) cannot read, or one that is not a
+    rampwork dataset (no ``rampwork_scene`` global attribute).
     """
     path = Path(path)
     where = str(path)
     if not path.exists():
         raise ConfigError(where, "no such file")
-    if path.is_dir():
-        raise ConfigError(where, "is a directory, not a netCDF file")
-    try:
-        ds = xr.load_dataset(path, engine=_ENGINE, decode_times=False, decode_timedelta=False)
-    except Exception as exc:  # noqa: BLE001 - any reader failure means "not readable"
-        raise ConfigError(where, f"cannot be read as netCDF: {_one_line(exc)}") from None
+    if _is_zarr(path):
+        from .zarrstore import open_store
+
+        ds = open_store(path)
+    elif path.is_dir():
+        raise ConfigError(where, "is a directory, not a netCDF file or a Zarr store")
+    else:
+        try:
+            ds = xr.load_dataset(path, engine=_ENGINE, decode_times=False, decode_timedelta=False)
+        except Exception as exc:  # noqa: BLE001 - any reader failure means "not readable"
+            raise ConfigError(where, f"cannot be read as netCDF: {_one_line(exc)}") from None
     if "rampwork_scene" not in ds.attrs:
         raise ConfigError(where, "not a rampwork dataset (no rampwork_scene attribute)")
     return ds

@@ -1,5 +1,12 @@
-"""Sweeps written to a netCDF file chunk by chunk: bounded memory, resumable
-after an interruption, and the same sweep on a Dask cluster.
+"""Sweeps written to a netCDF file (or a Zarr store) chunk by chunk: bounded
+memory, resumable after an interruption, and the same sweep on a Dask cluster.
+
+The output format follows the path's suffix (:func:`rampwork.io.output_format`):
+this module runs the sweep, and a chunk store (:mod:`rampwork.chunkstore`)
+writes it. What follows is the netCDF file's; a Zarr store
+(:mod:`rampwork.zarrstore`) is written the same way, except that each chunk
+is written where it is computed, on a Dask worker too, and marked done in a
+record of its own.
 
 The file is created whole first, as a partial file ``.NAME.partial`` beside
 the target: every variable, coordinate and attribute the in-memory dataset of
@@ -36,16 +43,13 @@ import xarray as xr
 
 from . import io, runner, schema
 from ._version import __version__
+from .chunkstore import (DIGEST_ATTR, DONE_ATTR, LAYOUT_ATTR, RUN_TIME_ATTR,  # noqa: F401
+                         fit_done, open_chunk_store)
 from .errors import ConfigError, option
 from .scene import Scene, Sweep
 
 __all__ = ["run_to_file", "SweepToFile", "ChunkLayout", "partial_path"]
 
-#: global attributes of a partial file (all replaced when it is finalised)
-DIGEST_ATTR = "rampwork_partial_digest"
-LAYOUT_ATTR = "rampwork_partial_chunk_layout"
-DONE_ATTR = "rampwork_chunks_done"
-RUN_TIME_ATTR = "rampwork_partial_run_time_s"
 #: changes whenever the partial file's layout or meaning changes
 PARTIAL_FORMAT = 1
 #: the done bits live in one attribute; HDF5 keeps attributes under 64 KiB compact
@@ -114,12 +118,6 @@ def run_digest(plan: runner.RunPlan) -> str:
     return hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode()).hexdigest()
 
 
-def _open(path: Path, mode: str):
-    import netCDF4
-
-    return netCDF4.Dataset(path, mode, format="NETCDF4")
-
-
 class SweepToFile:
     """One sweep written to one file; every check is made on construction,
     before any work, and :meth:`run` does the work. See :func:`run_to_file`."""
@@ -137,9 +135,10 @@ class SweepToFile:
             raise ConfigError("threads", "not used with a scheduler: each worker runs a chunk on "
                               "its own threads")
         self.threads = runner.thread_count(threads) if self.scheduler is None else None
-        self.path = io.check_writable(path, overwrite)
+        self.path = io.check_writable(path, overwrite, store=Path(path).suffix.lower() == io.ZARR_SUFFIX)
         self.overwrite = overwrite
         self.partial = partial_path(self.path)
+        self.store = open_chunk_store(self.path, self.partial, self.compression_level)  # by the suffix
         self.digest = run_digest(self.plan)
         self.layout = ChunkLayout.for_shape(runner.dataset_layout(self.plan).shape,
                                             runner.CHUNK_SIZE if chunk_size is None else int(chunk_size))
@@ -159,15 +158,8 @@ class SweepToFile:
 
     def _read_partial(self, chunk_size) -> None:
         where = str(self.partial)
-        try:
-            with _open(self.partial, "r") as nc:
-                digest = nc.getncattr(DIGEST_ATTR)
-                axis, rows = (int(v) for v in np.atleast_1d(nc.getncattr(LAYOUT_ATTR)))
-                bits = np.atleast_1d(nc.getncattr(DONE_ATTR)).astype(np.uint8)
-                run_seconds = float(nc.getncattr(RUN_TIME_ATTR))
-        except (OSError, AttributeError, KeyError, ValueError, RuntimeError) as error:
-            raise ConfigError(where, f"cannot be resumed ({' '.join(str(error).split())}); remove it "
-                              f"or pass {option('overwrite')} to start over") from None
+        record = self.store.read_partial()
+        digest, axis, rows = record.digest, record.axis, record.rows
         if digest != self.digest:
             raise ConfigError(where, "was started by a different scene, sweep or rampwork version; "
                               f"refusing to resume: pass {option('overwrite')} to start over")
@@ -176,8 +168,8 @@ class SweepToFile:
             raise ConfigError("chunk_size", f"{chunk_size} differs from the partial run's chunks "
                               f"({rows} along dimension {axis}); leave it unset to resume")
         self.layout = layout
-        self.done = np.unpackbits(bits, count=layout.count).astype(bool)
-        self.previous_run_seconds = run_seconds
+        self.done = fit_done(record.done, layout.count)
+        self.previous_run_seconds = record.run_seconds
         self.resuming = True
 
     @property
@@ -202,36 +194,32 @@ class SweepToFile:
             pending = [int(i) for i in np.flatnonzero(~self.done)]
             run_chunks = self._threaded if self.scheduler is None else self._distributed
             chunks = run_chunks(pending, info)  # compiled, or connected, before the file is touched
-            nc = _open(self.partial, "a") if self.resuming else self._create()
             try:
-                self._write(nc, chunks, info, progress)
+                self.store.open() if self.resuming else self._create()
+                self._write(chunks, info, progress)
             finally:
-                if nc.isopen():
-                    nc.close()
+                self.store.close()
         finally:
             if "close" in info:
                 info["close"]()
-        io.replace_file(self.partial, self.path, self.overwrite)
+        self.store.commit(self.overwrite)
         return self.path
 
-    def _write(self, nc, chunks, info: dict, progress) -> None:
-        for name in runner.dataset_layout(self.plan).attrs:
-            # each chunk is written whole, once: a cache would only hold on to
-            # written chunks (netCDF's default allows 16 MiB per variable)
-            nc[name].set_var_chunk_cache(size=0)
+    def _write(self, chunks, info: dict, progress) -> None:
         started = time.perf_counter()
         done = self._done_trajectories()
         if progress is not None:
             progress(done, self.plan.size)
         for index, results in _one_ahead(chunks):
             start, stop, where, shape = self.layout.piece(index)
-            for name, values in results.items():
-                nc[name][where] = values.reshape(shape)
-            self._mark_done(nc, index, time.perf_counter() - started)
+            if results is not None:  # else written where it was computed
+                self.store.write(index, where, shape, results)
+            self.done[index] = True
+            self.store.mark_done(index, self.done, self.previous_run_seconds + time.perf_counter() - started)
             done += stop - start
             if progress is not None:
                 progress(done, self.plan.size)
-        self._finalise(nc, self.previous_run_seconds + time.perf_counter() - started, info)
+        self._finalise(self.previous_run_seconds + time.perf_counter() - started, info)
 
     def _create(self):
         layout = runner.dataset_layout(self.plan)
@@ -240,48 +228,26 @@ class SweepToFile:
                                                             layout.shape), attrs)
                         for name, attrs in layout.attrs.items()}
         skeleton = xr.Dataset(placeholders, coords=layout.coords)
-        self.partial.unlink(missing_ok=True)  # a stale one: overwrite was asked for
-        nc = _open(self.partial, "w")
-        try:
-            chunks = {name: self.layout.chunksizes for name in layout.attrs} if layout.shape else {}
-            io.define_variables(nc, skeleton, deferred=tuple(layout.attrs), chunksizes=chunks,
-                                compression_level=self.compression_level)
-            attrs = runner.attributes(self.plan, 0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
-            attrs.update({DIGEST_ATTR: self.digest, LAYOUT_ATTR: np.array([self.layout.axis, self.layout.rows]),
-                          DONE_ATTR: np.packbits(self.done), RUN_TIME_ATTR: 0.0})
-            io.set_attributes(nc, attrs)
-            nc.sync()
-            io.fsync_file(self.partial)
-        except BaseException:
-            nc.close()
-            self.partial.unlink(missing_ok=True)
-            raise
-        return nc
+        # one chunk of the file per chunk of the run: concurrent writers never share one
+        chunks = {name: self.layout.chunksizes for name in layout.attrs} if layout.shape else {}
+        attrs = runner.attributes(self.plan, 0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
+        attrs.update({DIGEST_ATTR: self.digest, LAYOUT_ATTR: np.array([self.layout.axis, self.layout.rows]),
+                      RUN_TIME_ATTR: 0.0})
+        self.store.create(skeleton, tuple(layout.attrs), chunks, attrs, self.done)
 
-    def _mark_done(self, nc, index: int, seconds: float) -> None:
-        # the data reach the disk before the bit that says they are there
-        nc.sync()
-        self.done[index] = True
-        nc.setncattr(DONE_ATTR, np.packbits(self.done))
-        nc.setncattr(RUN_TIME_ATTR, self.previous_run_seconds + seconds)
-        nc.sync()
-        io.fsync_file(self.partial)
-
-    def _finalise(self, nc, run_seconds: float, info: dict) -> None:
-        steps = 0
-        for index in range(self.layout.count):  # chunk by chunk: memory stays bounded
-            steps += int(np.asarray(nc["steps"][self.layout.piece(index)[2]], dtype=np.int64).sum())
+    def _finalise(self, run_seconds: float, info: dict) -> None:
+        # chunk by chunk: memory stays bounded
+        steps = self.store.steps(self.layout.piece(index)[2] for index in range(self.layout.count))
         attrs = runner.attributes(self.plan, info["compile_time_s"], run_seconds, info["threads"], steps,
                                   entry="rampwork.run_to_file",
                                   kernel_source=info.get("kernel_source"),
                                   kernel_tier=info.get("kernel_tier", "specialised"))
+        traces = None
         if self.plan.scene.record.enabled:
             traces, attrs["trace_time_s"] = info["traces"]()
-            io.define_variables(nc, traces, compression_level=self.compression_level)
         if "scheduler" in info:
             attrs["scheduler"] = info["scheduler"]
-        io.set_attributes(nc, attrs)
-        nc.close()
+        self.store.finalise(attrs, traces)
 
     # --------------------------------------------------------------------------
     def _threaded(self, pending, info: dict):
@@ -322,9 +288,14 @@ class SweepToFile:
             # finished results wait for the client no longer than that
             window = 2 * max(1, info["threads"])
             todo = iter(pending)
+            # a store the workers write to gets each chunk from the worker that computed it
+            writer = self.store.worker_writer() if self.store.writes_on_workers else None
 
             def submit(index):
-                start, stop, _, _ = self.layout.piece(index)
+                start, stop, where, shape = self.layout.piece(index)
+                if writer is not None:
+                    return client.submit(_chunk_store_task, shipped, index, start, stop, writer, where,
+                                         shape, pure=False)
                 return client.submit(_chunk_task, shipped, index, start, stop, pure=False)
 
             running = as_completed([submit(i) for i in itertools.islice(todo, window)])
@@ -460,6 +431,13 @@ def _chunk_task(text: str, index: int, start: int, stop: int):
             return index, runner.run_chunk(prepared, start, stop, threads), compile_seconds
 
 
+def _chunk_store_task(text: str, index: int, start: int, stop: int, writer, where, shape):
+    """A chunk computed and written on the worker: only its index goes back."""
+    index, results, compile_seconds = _chunk_task(text, index, start, stop)
+    writer.write(index, where, shape, results)
+    return index, None, compile_seconds
+
+
 def _traces_task(text: str):
     with _WORKER_LOCK:
         prepared, _ = _worker_prepared(text)
@@ -473,7 +451,11 @@ def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
     """Run ``scene`` over ``sweep`` and write the results to the netCDF file
     ``path`` chunk by chunk, in bounded memory; the file reads back
     (:func:`rampwork.open_dataset`) equal, value for value, to
-    :func:`rampwork.simulate`'s dataset.
+    :func:`rampwork.simulate`'s dataset. A ``path`` ending in ``.zarr`` is
+    written as a Zarr store instead (the same variables and attributes;
+    ``xarray.open_zarr`` reads it), each chunk where it is computed, on a
+    Dask worker too; netCDF suffixes are ``.nc`` (the default format),
+    ``.nc4``, ``.netcdf`` and ``.cdf``, and any other is refused.
 
     ``chunk_size``: trajectories per chunk (default ``runner.CHUNK_SIZE``);
     each finished chunk is on disk in ``.NAME.partial`` beside ``path`` until
@@ -487,8 +469,8 @@ def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
     scheduler address, ``"local"`` (start a local cluster, one worker per
     core) or a ``distributed.Client``; ``threads`` is then the workers'.
     ``compression_level``: zlib level 0..9 as in :func:`rampwork.write_netcdf`
-    (0: none; compressing costs about as much as a cheap trajectory, see
-    benchmarks/scaling.py; a resumed run keeps its file's).
+    (Blosc-zstd's for Zarr; 0: none; compressing costs about as much as a
+    cheap trajectory, see benchmarks/scaling.py; a resumed run keeps its file's).
     Returns ``path``.
     """
     job = SweepToFile(scene, sweep, path, chunk_size=chunk_size, threads=threads, resume=resume,
