@@ -47,6 +47,11 @@ from rampwork.core.status import STATUS_TABLE  # noqa: E402
 from rampwork.errors import ConfigError  # noqa: E402
 from rampwork.ramps import FAMILIES  # noqa: E402
 
+#: the command as the docs write it: what works after the quick start, where the
+#: virtual environment is not activated (docs/guide/install.md)
+COMMAND = ".venv/bin/rampwork"
+
+
 def _power(value: int) -> str:
     """10^k for a power of ten, else the number with thousands separators."""
     text = str(int(value))
@@ -63,7 +68,8 @@ def _power(value: int) -> str:
 DESCRIPTIONS = {
     # top level
     "title": "Title of the run, stored as the dataset's `title` attribute.",
-    "x0": "Start position (horizontal). Required unless `x0` is a sweep axis.",
+    "x0": "Start position (horizontal), in the ramp's `domain` (checked when the scene is "
+          "made). Required unless `x0` is a sweep axis.",
     "v0": "Start velocity, the horizontal velocity dx/dt (not the speed along the ramp).",
     "m": "Mass of the block. The motion does not depend on it; every work scales with it.",
     "g": "Gravitational acceleration.",
@@ -97,15 +103,20 @@ DESCRIPTIONS = {
     # [integrator]
     "integrator.method": "The stepping method: fixed steps of `dt`, or an adaptive "
                          "Dormand-Prince pair with error control per trajectory.",
-    "integrator.dt": "Fixed-step methods: the step. Adaptive methods: the first step.",
+    "integrator.dt": "Fixed-step methods: the step. Adaptive methods: the first step. Either way "
+                     "shorter than `t_max`.",
     "integrator.rtol": "Adaptive methods only: relative tolerance on x, v and the work "
                        "integrals.",
     "integrator.atol": "Adaptive methods only: absolute tolerance (SI units of each quantity, "
                        "so on metre-scale ramps it reads as relative too).",
-    "integrator.dt_max": "Adaptive methods only: the largest step.",
+    "integrator.dt_max": "Adaptive methods only: the largest step (it may exceed `t_max`, "
+                         "which then bounds the steps).",
     "integrator.closed_form": "`true`: a straight ramp without drag is solved exactly, without "
-                              "stepping (datasets say `kernel_closed_form = 1`, `steps = 0`); "
-                              "`false` steps with `method` anyway, to measure its error.",
+                              "stepping, whatever `method` says (datasets say "
+                              "`integrator_used = \"closed_form\"`, `kernel_closed_form = 1`, "
+                              "`steps = 0`; `rampwork check` and `run` add \"(not used: ...)\" "
+                              "to the integrator); `false` steps with `method` anyway, to measure "
+                              "its error.",
     # [record]
     "record.count": "How many trajectories to record, spread evenly over the sweep.",
     "record.every": "A sample every `every` steps (and at every event).",
@@ -172,6 +183,7 @@ FIXED_DEFAULTS = {
 _ADAPTIVE = {"integrator": {"method": "dopri5"}}
 _RANDOM = {"sweep": {"kind": "random", "n": 1, "axes": {"mu": {"uniform": [0.1, 0.2]}}}}
 BOUNDS = {
+    "x0": ("in `ramp.domain`", [(-1.0, True), (1.0, True), (1.5, False), (-1.01, False)], {}),
     "m": ("> 0", [(0.0, False), (1e-9, True)], {}),
     "g": ("> 0", [(0.0, False), (1e-9, True)], {}),
     "t_max": (f"> `dt`; `t_max / dt` <= {_power(scene_module.MAX_STEPS_PER_TRAJECTORY)}",
@@ -182,7 +194,7 @@ BOUNDS = {
     "drag.quadratic": (">= 0", [(-1e-9, False), (0.0, True)], {}),
     "integrator.dt": ("> 0, < `t_max` (adaptive methods: the first step)",
                       [(0.0, False), (1e-3, True), (1e9, False)], {}),
-    "integrator.dt_max": ("> 0, >= `dt`", [(0.0, False), (1e-3, True)], _ADAPTIVE),
+    "integrator.dt_max": ("> 0, >= `dt`", [(0.0, False), (1e-3, True), (1e3, True)], _ADAPTIVE),
     "integrator.rtol": (f"{scene_module.RTOL_RANGE[0]:g} to {scene_module.RTOL_RANGE[1]:g}",
                         [(scene_module.RTOL_RANGE[0], True), (scene_module.RTOL_RANGE[1], True),
                          (scene_module.RTOL_RANGE[0] / 2, False),
@@ -437,6 +449,11 @@ class Reference:
             if rows:
                 out.append(_table(["key", "type", "default", "units", "allowed", "description"],
                                   rows))
+            for r in family.renamed.values():  # old names the family still reads
+                out.append(f"\n**Old name `{r.old}`**: it {r.change}; it is now `{r.new}` "
+                           f"({r.new} = {r.formula}). A scene that still gives `{r.old}` is read "
+                           f"that way, with a `RenamedParameterWarning`; a sweep over `{r.old}` is "
+                           "refused.\n")
 
         for table, keys in (("friction", sf.FRICTION_KEYS), ("drag", sf.DRAG_KEYS),
                             ("integrator", sf.INTEGRATOR_KEYS), ("record", sf.RECORD_KEYS)):
@@ -581,7 +598,9 @@ class Reference:
         old = os.environ.get("COLUMNS")
         os.environ["COLUMNS"] = "96"
         try:
-            parser = build_parser()
+            # the command as typed after the quick start (the venv not activated), not as
+            # this process was started (build_parser() would name mkdocs' interpreter)
+            parser = build_parser(COMMAND)
             out = ["## `rampwork` {#rampwork}\n", "```text", parser.format_help().rstrip(), "```"]
             commands = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
             for name, sub in commands.choices.items():
@@ -604,7 +623,7 @@ class Reference:
         for name in example_names():
             text = example_text(name)
             out += [f"\n### `{name}` {{#example-{name.replace('_', '-')}}}\n",
-                    f"`rampwork example {name} > {name}.toml`\n", "```toml", text.rstrip(), "```"]
+                    f"`{COMMAND} example {name} > {name}.toml`\n", "```toml", text.rstrip(), "```"]
         return "\n".join(out) + "\n"
 
 
