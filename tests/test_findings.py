@@ -396,3 +396,30 @@ def test_the_cli_says_so_where_it_describes_the_integrator(tmp_path, capsys):
     assert line.startswith("integrator    euler, dt = 0.001 s (not used: a straight ramp is solved in "
                            "closed form; closed_form = false under [integrator] steps with it)")
     assert "Integrator(" not in out and "steps per trajectory" not in line
+
+
+def test_warnings_name_the_users_line(recwarn):
+    """ClosedFormNotice and RenamedParameterWarning point at the caller's line,
+    not at rampwork's own code (however deep rampwork found them)."""
+    import warnings
+
+    import rampwork as rw
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rw.Ramp.create("sine", slope=0.3, amplitude=0.01, wavenumber=3.0, domain=(0.0, 1.0))
+        scene = rw.Scene(ramp=rw.Ramp.create("straight", slope=-0.5, domain=(0.0, 1.0)),
+                         integrator=rw.Integrator("euler", dt=1e-3), x0=0.0, t_max=5.0)
+        rw.simulate(scene)
+    kinds = {w.category: w for w in caught}
+    assert {rw.RenamedParameterWarning, rw.ClosedFormNotice} <= set(kinds)
+    for warning in kinds.values():
+        assert warning.filename == __file__, (warning.category, warning.filename)
+
+
+def test_write_zarr_refuses_what_is_not_a_dataset_before_anything_else(tmp_path):
+    import rampwork as rw
+    from rampwork.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="made by rampwork"):
+        rw.write_zarr({"a": 1}, tmp_path / "no-such-folder" / "x.zarr")

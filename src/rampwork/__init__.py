@@ -14,7 +14,7 @@ balance, excess work beyond ``mu m g |dx|`` and convexity.
 
 from ._version import __version__
 from .core.status import STATUS_TABLE
-from .errors import ConfigError
+from .errors import ClosedFormNotice, ConfigError, RenamedParameterWarning
 from .io import open_dataset, write_netcdf
 from .ramps import FAMILIES, Ramp
 from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
@@ -25,6 +25,7 @@ from .zarrstore import write_zarr
 
 __all__ = [
     "__version__",
+    "ClosedFormNotice",
     "ConfigError",
     "FAMILIES",
     "Drag",
@@ -32,6 +33,7 @@ __all__ = [
     "Integrator",
     "Ramp",
     "Record",
+    "RenamedParameterWarning",
     "STATUS_TABLE",
     "Scene",
     "Sweep",

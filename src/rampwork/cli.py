@@ -36,7 +36,7 @@ rampwork: parameter studies of a point mass sliding with Coulomb friction on a
 ramp y = f(x).  A scene file (TOML) describes the ramp, friction, integrator,
 start values and a sweep (grid, cases or a random design); `rampwork run`
 integrates every trajectory with a compiled kernel and writes one netCDF file
-of per-trajectory results (status, end state, work against friction, energy
+(or Zarr store) of per-trajectory results (status, end state, work against friction, energy
 balance, excess work beyond mu m g |dx|, convexity, reversals, lift-off)."""
 
 EPILOG = """\
@@ -481,12 +481,12 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     commands.required = True
 
     run = commands.add_parser(
-        "run", help="simulate a scene file and write the results to netCDF", formatter_class=fmt,
+        "run", help="simulate a scene file and write the results to netCDF (or Zarr)", formatter_class=fmt,
         description="Load SCENE (TOML), check everything (including that OUTPUT can be written) "
                     "before any work, run every trajectory of its sweep chunk by chunk, writing "
-                    "each chunk's results to compressed netCDF4 as it finishes (memory stays "
-                    "bounded; an interrupted run continues with --resume), rename the finished "
-                    "file to OUTPUT and print a summary: trajectories, compile and run time, "
+                    "each chunk's results to compressed netCDF4 (or a Zarr store) as it finishes "
+                    "(memory stays bounded; an interrupted run continues with --resume), rename the "
+                    "finished file to OUTPUT and print a summary: trajectories, compile and run time, "
                     "trajectory-steps per second, end statuses.")
     run.add_argument("scene", metavar="SCENE.toml", help=f"scene file (see `{prog} example`)")
     run.add_argument("-o", "--output", metavar="OUT.nc", required=True,
@@ -494,7 +494,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                           "store (.zarr: each chunk written where it is computed, by a Dask worker "
                           "too); its directory must exist")
     run.add_argument("--overwrite", action="store_true",
-                     help="replace OUT.nc if it exists (default: refuse, exit status 2)")
+                     help="replace OUTPUT if it exists (default: refuse, exit status 2)")
     run.add_argument("--threads", metavar="N", default=None,
                      help="worker threads, 1 .. NUMBA_NUM_THREADS (default: all, "
                           f"here {os.cpu_count() or '?'} cores)")
@@ -506,8 +506,8 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                      help="show the progress bar (rate, time left) on stderr even when it is not a "
                           "terminal: a line every 5 s")
     run.add_argument("--resume", action="store_true",
-                     help="finish an interrupted run of OUT.nc: its finished chunks are kept in "
-                          ".OUT.nc.partial beside it, and only the others run; refused if the scene "
+                     help="finish an interrupted run of OUTPUT: its finished chunks are kept in "
+                          ".OUTPUT.partial beside it (a file, or a Zarr store), and only the others run; refused if the scene "
                           "or sweep differ (without a partial file: an ordinary run)")
     run.add_argument("--chunk-size", metavar="N", default=None,
                      help="trajectories per chunk, the unit of writing, resuming and Dask tasks "

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import os
+import sys
+import warnings
 
 
 class ConfigError(ValueError):
@@ -31,6 +34,16 @@ class RenamedParameterWarning(FutureWarning):
 class ClosedFormNotice(UserWarning):
     """A straight ramp was solved in closed form, not with the integrator the
     scene asked for (shown once a process per integrator)."""
+
+
+def warn(message: str, category: type[Warning]) -> None:
+    """``warnings.warn`` attributed to the first caller outside rampwork, so
+    that the warning names the user's line (however deep rampwork found it)."""
+    package = os.path.dirname(os.path.abspath(__file__))
+    frame, level = sys._getframe(0), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)
 
 
 #: the front end that called rampwork: "python" (the API) or "cli"

@@ -256,6 +256,13 @@ def replace_file(source: Path, path: Path, overwrite: bool) -> None:
     _fsync_dir(path.parent)
 
 
+def check_dataset(ds) -> None:
+    """Refuse what the writers cannot write, before anything is touched."""
+    if not isinstance(ds, xr.Dataset):
+        raise ConfigError("ds", f"expected an xarray.Dataset made by rampwork (rampwork.simulate, "
+                          f"rampwork.open_dataset), got {type(ds).__name__}")
+
+
 def write_netcdf(
     ds: xr.Dataset,
     path: str | os.PathLike,
@@ -272,9 +279,7 @@ def write_netcdf(
     flattened to netCDF-legal types (see :func:`schema.netcdf_attrs`).
     Refuses to replace an existing file unless ``overwrite``. Returns ``path``.
     """
-    if not isinstance(ds, xr.Dataset):
-        raise ConfigError("ds", f"expected an xarray.Dataset made by rampwork (rampwork.simulate, "
-                          f"rampwork.open_dataset), got {type(ds).__name__}")
+    check_dataset(ds)
     compression_level = check_compression_level(compression_level)
     path = check_writable(path, overwrite)
     prepared, encoding = _prepare(ds, compression_level)

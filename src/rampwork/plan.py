@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import functools
 import os
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +19,7 @@ from . import schema
 from .core import kernel as K
 from .core import reduce
 from .core.variant import CLOSED_FORM, KernelVariant
-from .errors import ClosedFormNotice, ConfigError, option
+from .errors import ClosedFormNotice, ConfigError, option, warn
 from .scene import Integrator, Scene, Sweep
 
 #: refuse sweeps whose results would not fit in this share of physical memory
@@ -178,9 +177,9 @@ def _note_closed_form(integrator: Integrator) -> None:
     (once a process) where the scene asked for an integrator of its own."""
     if integrator == Integrator():  # the default: nothing was asked for
         return
-    warnings.warn(f"a straight ramp is solved in closed form (exact, no steps): the integrator "
-                  f"asked for ({integrator.describe()}) is not used; {option('closed_form')} "
-                  "steps with it anyway", ClosedFormNotice, stacklevel=2)
+    warn(f"a straight ramp is solved in closed form (exact, no steps): the integrator "
+         f"asked for ({integrator.describe()}) is not used; {option('closed_form')} "
+         "steps with it anyway", ClosedFormNotice)
 
 
 def _check_static_friction(scene: Scene, sweep: Sweep) -> None:

@@ -366,7 +366,7 @@ def plot_dataset(ds, kind: str = "auto", where: str = "dataset"):
 def add_plot_command(subparsers) -> None:
     """Add ``rampwork plot`` to the command line's subparsers."""
     plot = subparsers.add_parser(
-        "plot", help="draw the common figures of a rampwork netCDF file",
+        "plot", help="draw the common figures of a rampwork netCDF file or Zarr store",
         description="Draw the common figures of DATASET (a file written by `rampwork run` or a "
                     "study): line plots for a 1-D sweep, maps for 2-D (other dimensions at their "
                     "middle value), excess work against convexity, end-status counts, recorded "

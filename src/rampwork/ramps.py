@@ -17,7 +17,6 @@ from __future__ import annotations
 import itertools
 import math
 import re
-import warnings
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
@@ -26,7 +25,7 @@ import numpy as np
 from . import validate
 from .core import ramps as core
 from .core.jit import jit, specialise
-from .errors import ConfigError, RenamedParameterWarning
+from .errors import ConfigError, RenamedParameterWarning, warn
 from .userfunctions import content_digest
 
 __all__ = [
@@ -727,9 +726,9 @@ def _read_renamed(spec: RampFamily, old: Mapping, given: set, values: list) -> l
             raise ConfigError(where, f"{renamed.explain(spec.name)}: give {renamed.new} alone")
         value = renamed.convert(validate.real(where, raw), params)
         params[renamed.new] = value
-        warnings.warn(f"{where}: {renamed.explain(spec.name)}: read as {renamed.new} = {value!r}; "
-                      f"write that instead (the old name will be refused in a later version)",
-                      RenamedParameterWarning, stacklevel=3)
+        warn(f"{where}: {renamed.explain(spec.name)}: read as {renamed.new} = {value!r}; "
+             f"write that instead (the old name will be refused in a later version)",
+             RenamedParameterWarning)
     return [(name, params[name]) for name, _ in values]
 
 

@@ -180,11 +180,10 @@ def write_zarr(ds: xr.Dataset, path: str | os.PathLike, *, overwrite: bool = Fal
     0..9 is Blosc-zstd's, 0: none). Refuses to replace an existing store
     unless ``overwrite``, and never replaces a directory that is not a Zarr
     store. Returns ``path``."""
+    io.check_dataset(ds)
     compression_level = io.check_compression_level(compression_level)
     path = io.check_writable(path, overwrite, store=True)
     _require(str(path))
-    if not isinstance(ds, xr.Dataset):
-        raise ConfigError("ds", f"expected an xarray.Dataset, got {type(ds).__name__}")
     prepared, encoding = _encoding(ds, compression_level)
     tmp = io.temp_path(path)
     try:
