@@ -224,6 +224,19 @@ def test_zero_drag_is_bit_identical_for_fixed_steps(method, settings):
     assert on[K.OUT_NREV].max() >= 3
 
 
+def test_zero_drag_is_bit_identical_for_an_euler_exit():
+    """A trajectory that leaves the bowl: explicit Euler locates its events in
+    closed form with drag compiled in too (the drag rate is the step start's),
+    so zero drag ends on the same bits as no drag (it used to root-find the
+    exit with drag on and end a few ulps apart)."""
+    scene = bowl_scene(rw.Integrator("euler", dt=1e-3)).replace(drag=rw.Drag())
+    sweep = rw.Sweep.cases(x0=[0.6794002416175917], v0=[2.1254605859868407], mu=[0.1842743345913863])
+    off = _raw(scene, sweep, drag_linear=False, drag_quadratic=False)
+    on = _raw(scene, sweep, drag_linear=True, drag_quadratic=True)
+    assert on[K.OUT_STATUS, 0] == 2  # exited
+    assert np.array_equal(on, off, equal_nan=True)
+
+
 @pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
 def test_zero_drag_adaptive_agrees_within_tolerance(method):
     """Adaptive pairs with the drag terms compiled in but b = c = 0: the drag

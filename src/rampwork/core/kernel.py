@@ -706,9 +706,9 @@ def _take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, sh
 
 
 def _resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outputs, shared):
-    """:func:`_resolve_lane` for explicit Euler without drag, whose full step
-    is bounded and keeps contact.  Within the step x(h) = x + h v and
-    v(h) = v + h a are linear in h (a is the step start's), so an exit or a
+    """:func:`_resolve_lane` for explicit Euler, whose full step is bounded
+    and keeps contact.  Within the step x(h) = x + h v and v(h) = v + h a
+    are linear in h (a is the step start's, drag included), so an exit or a
     reversal happens at one h, found in closed form instead of by root
     finding; each is monotone within the step, so the earliest is the first."""
     h = settings[SET_DT]
@@ -730,6 +730,10 @@ def _resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outpu
     if reversal <= 0.0:
         n = normal_term(v, lanes[FPP * LANES + i], lanes[G * LANES + i])
         a = acceleration(n, lanes[FP * LANES + i], lanes[Q * LANES + i])
+        if DRAG:  # as in steppers.euler_step (zero drag leaves a exactly as it is)
+            kd = drag_rate(v, lanes[FP * LANES + i], lanes[DRAG_B * LANES + i],
+                           lanes[DRAG_C * LANES + i], lanes[D * LANES + i], DRAG_LINEAR, DRAG_QUADRATIC)
+            a = fma(-kd, v, a)
         h_stop = min(-v / a, h)
         if best_kind == EV_NONE or h_stop < best_h:
             best_kind = np.int64(EV_REVERSAL)

@@ -120,8 +120,9 @@ class FixedStepMethod(NamedTuple):
     ``first_order``: a step uses the start's n and v, so its friction work
     h q n v = h mu_k |n| |v| is >= 0, and a step that ends with d v > 0 moved
     x in direction d (explicit Euler: x + h v; semi-implicit: x + h v_new).
-    ``linear_in_h``: x and v are linear in the step size (explicit Euler
-    without drag): events are located in closed form."""
+    ``linear_in_h``: x and v are linear in the step size (explicit Euler,
+    drag included: its rate is the step start's): events are located in
+    closed form."""
     step: Callable
     order: int
     first_order: bool = False

@@ -130,7 +130,7 @@ class KernelVariant:
     @property
     def linear_events(self) -> bool:
         """x and v linear in the step size: events located in closed form."""
-        return self.method in METHODS and METHODS[self.method].linear_in_h and not self.drag
+        return self.method in METHODS and METHODS[self.method].linear_in_h
 
     def general(self) -> "KernelVariant":
         """The general (runtime) variant that can run this one's scenes."""
