@@ -203,7 +203,11 @@ def _raw(scene, sweep, **drag_flags):
     return out
 
 
-NO_DRAG_SWEEP = rw.Sweep.random(24, seed=5, x0=(-0.95, 0.95), v0=(-2.5, 2.5), mu=(0.1, 0.3))
+# the cases Sweep.random(24, seed=5, ...) drew before designs were drawn from
+# Philox streams (rampwork.designs); kept as they were, see the xfail below
+_OLD_DRAW = np.random.default_rng(5)
+NO_DRAG_SWEEP = rw.Sweep.cases(x0=_OLD_DRAW.uniform(-0.95, 0.95, 24), v0=_OLD_DRAW.uniform(-2.5, 2.5, 24),
+                               mu=_OLD_DRAW.uniform(0.1, 0.3, 24))
 
 
 @pytest.mark.parametrize("method, settings", [
@@ -222,6 +226,21 @@ def test_zero_drag_is_bit_identical_for_fixed_steps(method, settings):
     assert np.array_equal(on, off, equal_nan=True)
     assert (on[K.OUT_DRAG_WORK] == 0.0).all()
     assert on[K.OUT_NREV].max() >= 3
+
+
+@pytest.mark.xfail(strict=True, reason="explicit Euler locates events in closed form only in a kernel "
+                   "without drag (KernelVariant: linear_in_h and not drag); with drag compiled in, "
+                   "the exit is located iteratively and differs in the last bits")
+def test_zero_drag_is_bit_identical_for_an_euler_exit():
+    """Found when Sweep.random's values changed (case 0 of Sweep.random(24,
+    seed=5, ...) now): a trajectory that leaves the bowl ends a few ulps
+    apart (t_end, v_end, W_friction) with drag compiled in at b = c = 0."""
+    scene = bowl_scene(rw.Integrator("euler", dt=1e-3)).replace(drag=rw.Drag())
+    sweep = rw.Sweep.cases(x0=[0.6794002416175917], v0=[2.1254605859868407], mu=[0.1842743345913863])
+    off = _raw(scene, sweep, drag_linear=False, drag_quadratic=False)
+    on = _raw(scene, sweep, drag_linear=True, drag_quadratic=True)
+    assert on[K.OUT_STATUS, 0] == 2  # exited
+    assert np.array_equal(on, off, equal_nan=True)
 
 
 @pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
