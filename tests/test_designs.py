@@ -92,6 +92,17 @@ def test_qmc_designs_are_scipys_scrambled_sequences(kind):
     assert np.allclose(np.log10(logged["v0"]), -2 + 3 * unit[:, 1], rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("kind", ["sobol", "halton"])
+def test_a_late_chunk_draws_only_its_own_points(kind, monkeypatch):
+    engine = {"sobol": qmc.Sobol, "halton": qmc.Halton}[kind]
+    drawn = []
+    original = engine._random
+    monkeypatch.setattr(engine, "_random", lambda self, n=1, **kwargs: drawn.append(n) or original(self, n, **kwargs))
+    design = _design(kind, 1 << 26)
+    assert design.unit(design.n - 3, design.n).shape == (3, 3)
+    assert drawn == [3]  # not the 2**26 - 3 points before them
+
+
 def test_sobol_draws_warn_of_nothing_whatever_the_chunk(recwarn):
     design = _design("sobol", 1024)
     design.draw(0, 1000)

@@ -23,7 +23,8 @@ Kinds (:data:`DESIGN_KINDS`), each scrambled and seeded:
     balance properties only then (scipy warns; rampwork refuses).
 ``halton``
     scipy's scrambled Halton sequence, ``qmc.Halton(d, scramble=True,
-    rng=seed)``, its first ``n`` points.
+    rng=seed)``, its first ``n`` points (a chunk sets the engine's
+    ``num_generated`` to its start: a Halton point depends on its index only).
 ``lhs``
     a Latin hypercube: on every axis each of the ``n`` strata ``[k/n,
     (k+1)/n)`` holds exactly one case, at a uniform position within it. The
@@ -238,7 +239,13 @@ def scipy_engine(kind: str, d: int, seed: int):
 def _scipy_points(kind: str, seed: int, d: int, start: int, stop: int) -> np.ndarray:
     engine = scipy_engine(kind, d, seed)
     if start > 0:
-        engine.fast_forward(start)
+        if kind == "halton":
+            # a Halton point is computed from its index (van der Corput digits
+            # from num_generated on); QMCEngine.fast_forward would draw and
+            # drop every point before it, 7 us a point
+            engine.num_generated = start
+        else:
+            engine.fast_forward(start)  # Sobol': a loop over gray-code steps in C
         return engine.random(stop - start)
     # the first point apart: scipy warns of a draw that is not a power of 2
     # only when it starts the sequence, and a chunk's size need not be one
