@@ -274,6 +274,15 @@ def test_a_design_runs_as_the_cases_it_draws():
     assert "n = 128" in dataset.attrs["rampwork_scene"]
 
 
+def test_the_reference_solver_runs_a_design_as_its_cases(reference):
+    sweep = rw.Sweep.lhs(5, seed=1, x0=(-0.9, 0.5), mu=(0.05, 0.3))
+    drawn = reference.reference_sweep(SCENE, sweep)
+    cases = reference.reference_sweep(SCENE, rw.Sweep.cases(**sweep.design.draw()))
+    assert drawn.keys() == cases.keys() and drawn["x_end"].shape == (5,)
+    for key in drawn:
+        assert np.array_equal(drawn[key], cases[key], equal_nan=True), key
+
+
 def test_file_runs_are_identical_whatever_the_chunk_size_and_threads(tmp_path):
     scene = SCENE.replace(record=rw.Record(count=3, every=50))
     expected = rw.simulate(scene, SOBOL)
