@@ -135,8 +135,14 @@ SWEEP_KIND_DESCRIPTIONS = {
     "grid": "The outer product of the axes: one output dimension per axis, in file order.",
     "cases": "Points: every axis lists the same number of values, and the i-th values of "
              "all axes make case i; one `case` dimension.",
-    "random": "`n` cases drawn from the axes' distributions with `seed`; one `case` "
-              "dimension.",
+    "random": "`n` independent cases drawn from the axes' distributions with `seed` (numpy's "
+              "Philox stream); one `case` dimension. Case i depends only on the recipe and i.",
+    "sobol": "A scrambled Sobol' sequence (scipy.stats.qmc, seeded) of `n` points, `n` a power "
+             "of 2, scaled to the axes' ranges; one `case` dimension.",
+    "halton": "A scrambled Halton sequence (scipy.stats.qmc, seeded) of `n` points, scaled to "
+              "the axes' ranges; one `case` dimension.",
+    "lhs": "A Latin hypercube of `n` points (one per stratum on every axis; strata from a "
+           "seeded permutation, not scipy's LatinHypercube); one `case` dimension.",
 }
 
 #: value forms of a sweep axis -> (TOML form, description)
@@ -149,9 +155,10 @@ VALUE_FORM_DESCRIPTIONS = {
     "arange": ("`{ arange = [start, stop, step] }`",
                "numpy's `arange`: from start in steps of `step`, stop excluded (careful with "
                "float ends)."),
-    "uniform": ("`{ uniform = [low, high] }`", "`random` only: drawn uniformly in [low, high]."),
+    "uniform": ("`{ uniform = [low, high] }`",
+                "Designs (`random`, `sobol`, `halton`, `lhs`) only: uniform in [low, high]."),
     "loguniform": ("`{ loguniform = [low, high] }`",
-                   "`random` only: drawn uniformly in the logarithm; low > 0."),
+                   "Designs only: uniform in the logarithm; low > 0."),
 }
 
 #: what a default of None means, per key

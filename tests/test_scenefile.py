@@ -115,13 +115,14 @@ def test_dump_writes_even_spacing_as_linspace_and_wraps_long_lists():
     assert parse_scene(text)[1] == sweep
 
 
-def test_dump_random_design_as_cases():
+def test_dump_random_design_as_its_recipe():
     scene, sweep = parse_scene(example_text("random_design"))
-    assert sweep.kind == "cases"
+    assert sweep.kind == "random" and sweep.design is not None
     text = dump_scene(scene, sweep)
     data = read_toml(text)
-    assert data["sweep"]["kind"] == "cases"
-    assert all(isinstance(v, list) for v in data["sweep"]["axes"].values())
+    assert {key: data["sweep"][key] for key in ("kind", "n", "seed")} == {"kind": "random", "n": 200, "seed": 1}
+    assert data["sweep"]["axes"] == {"mu": {"uniform": [0.05, 0.4]}, "curvature": {"loguniform": [0.1, 3.0]},
+                                     "x0": {"uniform": [-0.9, -0.1]}}
 
 
 def test_dump_refuses_callable_ramps():
@@ -195,7 +196,7 @@ curvature = { loguniform = [0.1, 3.0] }
 """)
     expected = Sweep.random(100, 3, log=("curvature",), mu=(0.05, 0.4), curvature=(0.1, 3.0))
     assert sweep == expected
-    assert sweep.kind == "cases" and sweep.shape == (100,)
+    assert sweep.kind == "random" and sweep.shape == (100,) and sweep.dims == ("case",)
     assert 0.05 <= sweep.values("mu").min() and sweep.values("mu").max() <= 0.4
     c = sweep.values("curvature")
     assert 0.1 <= c.min() and c.max() <= 3.0

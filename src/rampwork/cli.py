@@ -162,6 +162,8 @@ def _si(value: float) -> str:
 
 
 def _sweep_shape(sweep) -> str:
+    if sweep.design is not None:
+        return sweep.design.describe()
     if not sweep.axes:
         return "single trajectory (no sweep axes)"
     if sweep.kind == "cases":
@@ -400,7 +402,7 @@ def cmd_check(args) -> int:
         print(f"drag          linear = {scene.drag.linear!r} s-1, "
               f"quadratic = {scene.drag.quadratic!r} m-1")
     print(f"integrator    {_integration(plan)}, t_max = {scene.t_max!r} s{steps}")
-    dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.axes else "no dims"
+    dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.names else "no dims"
     print(f"sweep         {_sweep_shape(sweep)}; {dims}")
     print(f"trajectories  {plan.size:,}")
     print(f"kernel        {'; '.join(plan.effects)}")
@@ -433,6 +435,9 @@ def cmd_info(args) -> int:
     print(f"{'dimensions':<13} {dims or '(none: one trajectory)'}")
     if "n_trajectories" in attrs:
         print(f"{'trajectories':<13} {int(attrs['n_trajectories']):,}")
+    sweep = _stored_sweep(str(attrs.get("rampwork_scene", "")))
+    if sweep is not None:
+        print(f"{'sweep':<13} {sweep}")
     timing = []
     for key, label in (("compile_time_s", "compile"), ("run_time_s", "run"), ("trace_time_s", "trace")):
         if key in attrs:
@@ -459,9 +464,46 @@ def cmd_info(args) -> int:
     describe("variables", list(dataset.data_vars))
     if not args.no_scene:
         print("scene:")
-        for line in str(attrs.get("rampwork_scene", "")).rstrip("\n").splitlines():
+        for line in _scene_lines(str(attrs.get("rampwork_scene", ""))):
             print(f"  {line}" if line else "")
     return EXIT_OK
+
+
+#: a stored scene larger than this is not parsed for `info`'s sweep line
+#: (files of rampwork <= 0.1 stored a random design's every value)
+_SUMMARY_SCENE_BYTES = 1 << 20
+#: the lines of one array that `info` prints before it elides the rest
+_ARRAY_LINES = 6
+
+
+def _stored_sweep(text: str) -> str | None:
+    """The sweep line of a stored scene (a design: its recipe), or None."""
+    from .scenefile import parse_scene
+
+    if len(text) > _SUMMARY_SCENE_BYTES:
+        return None
+    try:
+        _, sweep = parse_scene(text, "the stored scene")
+    except ConfigError:
+        return None
+    return _sweep_shape(sweep)
+
+
+def _scene_lines(text: str) -> list[str]:
+    """A stored scene's lines, each array of more than a few lines cut short
+    (a design is stored as its recipe; older files listed every value)."""
+    lines, kept = [], 0
+    for line in text.rstrip("\n").splitlines():
+        if kept and line.strip() != "]":
+            kept += 1
+            if kept <= _ARRAY_LINES:
+                lines.append(line)
+            continue
+        if kept > _ARRAY_LINES:
+            lines.append(f"    # ... {kept - _ARRAY_LINES:,} more lines of values")
+        kept = 1 if line.rstrip().endswith("= [") else 0
+        lines.append(line)
+    return lines
 
 
 # ----------------------------------------------------------------------------

@@ -103,8 +103,27 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
             if name in scene.ramp.spec.renamed:  # a parameter's old name
                 raise scene.ramp.spec.unknown_parameter(f"sweep.{name}", name, allowed)
             raise ConfigError(f"sweep.{name}", f"unknown axis; allowed: {', '.join(allowed)}")
+    if sweep.design is None:
+        return _plan(scene, sweep, sweep)
+    # a design's values all lie in its ranges: the grid of the ranges' ends
+    # stands for them in every check (each is monotone in a value, or, for a
+    # ramp's shape, convex in its parameters)
+    ends = Sweep.grid(**{axis.name: sorted({axis.low, axis.high}) for axis in sweep.design.axes})
+    try:
+        return _plan(scene, sweep, ends)
+    except ConfigError as error:
+        name = error.where.removeprefix("sweep.")
+        if name not in sweep.design.names:
+            raise
+        axis = sweep.design.axis(name)
+        raise ConfigError(error.where, f"{error.problem} (the {sweep.kind} design draws {name} from "
+                          f"[{axis.low!r}, {axis.high!r}])") from None
+
+
+def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
+    """The plan of ``sweep``, its values checked as those of ``checked``."""
     size = sweep.size
-    axes = dict(sweep.axes)
+    axes = dict(checked.axes)
     lo, hi = scene.ramp.domain
     for k, index in enumerate(scene.record.indices or ()):
         if index >= size:  # refused before the run, not after it
@@ -130,13 +149,13 @@ def plan_run(scene: Scene, sweep: Sweep | None = None) -> RunPlan:
     for name in ("m", "g"):
         if name in axes and min(axes[name]) <= 0:
             raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
-    _check_static_friction(scene, sweep)
+    _check_static_friction(scene, checked)
 
     # ramp parameters: every combination that occurs must be a valid ramp
     spec = scene.ramp.spec
     base = scene.ramp.param_dict()
     swept = [name for name in spec.parameter_names if name in axes]
-    if sweep.kind == "grid" and swept:
+    if checked.kind == "grid" and swept:
         mesh = np.meshgrid(*[np.asarray(axes[name]) for name in swept], indexing="ij")
         combos = {name: grid.ravel() for name, grid in zip(swept, mesh)}
     else:
@@ -207,6 +226,8 @@ def axis_values(plan: RunPlan, start: int, stop: int,
                 columns: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Each swept axis's value for the flat trajectories start..stop-1
     (a grid's into the rows of ``columns`` when given)."""
+    if plan.sweep.design is not None:
+        return plan.sweep.design.draw(start, stop)
     if not plan.sweep.axes:
         return {}
     arrays = plan.axis_arrays
@@ -222,12 +243,15 @@ def axis_values(plan: RunPlan, start: int, stop: int,
 
 
 def chunk_inputs(plan: RunPlan, start: int, stop: int, out: np.ndarray | None = None,
-                 columns: np.ndarray | None = None) -> np.ndarray:
+                 columns: np.ndarray | None = None,
+                 values: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """The kernel's input rows (K.N_INPUTS, stop - start) for a flat range
-    (into ``out`` when given; ``columns``: scratch for a grid's axis values)."""
+    (into ``out`` when given; ``columns``: scratch for a grid's axis values;
+    ``values``: the range's :func:`axis_values`, when already drawn)."""
     scene = plan.scene
     n = stop - start
-    values = axis_values(plan, start, stop, columns)
+    if values is None:
+        values = axis_values(plan, start, stop, columns)
 
     def column(name, default):
         return values[name] if name in values else default
@@ -258,7 +282,8 @@ def chunk_inputs(plan: RunPlan, start: int, stop: int, out: np.ndarray | None = 
     return inputs
 
 
-def trajectory_masses(plan: RunPlan, start: int, stop: int) -> np.ndarray:
+def trajectory_masses(plan: RunPlan, start: int, stop: int,
+                      values: dict[str, np.ndarray] | None = None) -> np.ndarray:
     if "m" not in plan.sweep.names:
         return np.full(stop - start, plan.scene.m)
-    return axis_values(plan, start, stop)["m"]
+    return (axis_values(plan, start, stop) if values is None else values)["m"]

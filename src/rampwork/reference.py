@@ -414,6 +414,12 @@ _SCENE_NAMES = ("x0", "v0", "m", "g")
 def _sweep_points(scene: Scene, sweep: Sweep):
     """Each trajectory's overrides, in the flat order rampwork.simulate uses."""
     axes = sweep.axes
+    if sweep.design is not None:
+        for start in range(0, sweep.size, 4096):
+            values = sweep.design.draw(start, min(start + 4096, sweep.size))
+            for j in range(len(next(iter(values.values())))):
+                yield {name: column[j] for name, column in values.items()}
+        return
     if not axes:
         yield {}
         return
@@ -437,7 +443,7 @@ def reference_sweep(scene: Scene, sweep: Sweep | None = None, **options) -> dict
     per key of :data:`RESULT_KEYS`.
     """
     sweep = Sweep.single() if sweep is None else sweep
-    shape = sweep.shape if sweep.axes else ()
+    shape = sweep.shape if sweep.names else ()
     base_params = scene.ramp.param_dict()
     results: dict[str, list] = {key: [] for key in RESULT_KEYS}
     for point in _sweep_points(scene, sweep):

@@ -175,12 +175,30 @@ def run_chunk(prepared: Prepared, start: int, stop: int, threads: int,
     if buffers is None or buffers.size < n:
         buffers = ChunkBuffers(plan, n)
     inputs, raw, columns = buffers.arrays(n)
-    inputs = chunk_inputs(plan, start, stop, out=inputs, columns=columns)
+    values = axis_values(plan, start, stop, columns)  # a design's: drawn once a chunk
+    inputs = chunk_inputs(plan, start, stop, out=inputs, values=values)
     raw.fill(0.0)
     prepared.run_batch(inputs, prepared.settings, raw, prepared.shared, tile_size(n, threads))
     if out is None:
         out = empty_results(plan, n)
-    return reduce_outputs(raw, inputs, trajectory_masses(plan, start, stop), out=out)
+        out.update(drawn_coordinates(plan, start, stop, values))
+    else:
+        for name, array in drawn_coordinates(plan, start, stop, values).items():
+            if name in out:
+                out[name][...] = array
+    return reduce_outputs(raw, inputs, trajectory_masses(plan, start, stop, values), out=out)
+
+
+def drawn_coordinates(plan: RunPlan, start: int, stop: int,
+                      values: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """The values of the coordinates a run draws (:attr:`DatasetLayout.drawn`:
+    a design's axes and its ``case`` numbers) for the flat range start..stop-1;
+    ``values``: the range's :func:`axis_values`, when already drawn. Empty
+    for a grid or cases sweep, whose coordinates are its own values."""
+    if plan.sweep.design is None:
+        return {}
+    values = axis_values(plan, start, stop) if values is None else values
+    return {"case": np.arange(start, stop, dtype=np.int64), **values}
 
 
 
@@ -270,6 +288,9 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     handover = _Handover(plan, prepared, requested == "auto")
 
     results = empty_results(plan, plan.size)
+    layout = dataset_layout(plan)
+    coords = dict(layout.coords)
+    drawn = {name: np.empty(plan.size, dtype=coords[name][1].dtype) for name in layout.drawn}
     started = time.perf_counter()
     buffers = ChunkBuffers(plan, min(plan.size, CHUNK_SIZE))
     with using_threads(threads):
@@ -281,7 +302,7 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
             stop = min(plan.size, start + handover.chunk_size())
             chunk_started = time.perf_counter()
             run_chunk(prepared, start, stop, threads,
-                      out={name: array[start:stop] for name, array in results.items()},
+                      out={name: array[start:stop] for name, array in (results | drawn).items()},
                       buffers=buffers)
             handover.after_chunk(stop - start, plan.size - stop, time.perf_counter() - chunk_started)
             if progress is not None:
@@ -289,9 +310,10 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
             start = stop
     run_seconds = time.perf_counter() - started
 
-    layout = dataset_layout(plan)
+    for name, values in drawn.items():
+        coords[name] = (coords[name][0], values, coords[name][2])
     dataset = xr.Dataset({name: (layout.dims, values.reshape(layout.shape), layout.attrs[name])
-                          for name, values in results.items()}, coords=layout.coords)
+                          for name, values in results.items()}, coords=coords)
     if scene.record.enabled:
         dataset, trace_seconds = with_traces(prepared, dataset)
         dataset.attrs["trace_time_s"] = trace_seconds
@@ -326,29 +348,42 @@ def thread_count(threads: int | None) -> int:
 @dataclass(frozen=True)
 class DatasetLayout:
     """What a run's dataset looks like before it has values: the output
-    variables' dims, shape and attributes, and the coordinates (small arrays,
-    the sweep's own axes)."""
+    variables' dims, shape and attributes, and the coordinates: the sweep's
+    own axes, or for a design (``drawn``: their names) zero-stride stand-ins
+    of the right dtype and length whose values come chunk by chunk with the
+    results (:func:`drawn_coordinates`; :func:`run_chunk` returns them)."""
 
     dims: tuple[str, ...]
     shape: tuple[int, ...]
     attrs: dict[str, dict]
     coords: dict[str, tuple]
+    drawn: tuple[str, ...] = ()
+
+
+CASE_ATTRS = {"long_name": "case number", "units": "1"}
 
 
 def dataset_layout(plan: RunPlan) -> DatasetLayout:
     sweep = plan.sweep
     ramp_parameters = plan.scene.ramp.spec.parameters
-    dims = sweep.dims if sweep.axes else ()
-    shape = plan.shape if sweep.axes else ()
+    dims = sweep.dims if sweep.names else ()
+    shape = plan.shape if sweep.names else ()
     coords = {}
+    drawn = ()
+    if sweep.design is not None:
+        drawn = sweep.names + ("case",)
+        for name in sweep.names:
+            attrs = schema.spec_attrs(schema.axis_spec(name, ramp_parameters))
+            coords[name] = ("case", np.broadcast_to(np.float64(0.0), shape), attrs)
+        coords["case"] = ("case", np.broadcast_to(np.int64(0), shape), CASE_ATTRS)
     for name, values in sweep.axes:
         spec = schema.axis_spec(name, ramp_parameters)
         attrs = schema.spec_attrs(spec)
         coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.asarray(values), attrs)
     if sweep.kind == "cases" and sweep.axes:
-        coords["case"] = ("case", np.arange(plan.size), {"long_name": "case number", "units": "1"})
+        coords["case"] = ("case", np.arange(plan.size), CASE_ATTRS)
     attrs = {name: schema.output_attrs(name) for name in plan.output_names}
-    return DatasetLayout(tuple(dims), tuple(shape), attrs, coords)
+    return DatasetLayout(tuple(dims), tuple(shape), attrs, coords, drawn)
 
 
 def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:

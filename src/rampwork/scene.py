@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import validate
+from .designs import DESIGN_KINDS, Design
 from .core import steppers
 from .core.steppers import ADAPTIVE_STEPPERS
 from .errors import ConfigError
@@ -30,7 +31,7 @@ CONTACTS = ("one_sided", "two_sided")
 #: optional per-trajectory diagnostics a scene may ask for (each adds an
 #: output variable and the code that computes it; nothing otherwise)
 DIAGNOSTICS = ("x_lift_off_paper",)
-SWEEP_KINDS = ("grid", "cases")
+SWEEP_KINDS = ("grid", "cases") + DESIGN_KINDS
 #: sweep axes that are not ramp parameters (schema.AXES holds their units)
 SCENE_AXES = ("mu", "mu_k", "mu_s", "x0", "v0", "m", "g", "drag_linear", "drag_quadratic")
 #: the largest flat trajectory index (int64)
@@ -266,15 +267,27 @@ class Scene:
 @dataclass(frozen=True)
 class Sweep:
     """Values to run a scene over: a full ``grid`` (outer product of the axes,
-    one output dimension per axis, in the given order) or ``cases`` (every axis
-    the same length, one ``case`` dimension).  Build with :meth:`grid`,
-    :meth:`cases`, :meth:`random` or :meth:`single`."""
+    one output dimension per axis, in the given order), ``cases`` (every axis
+    the same length, one ``case`` dimension), or a design drawn from its
+    recipe (``design``, a :class:`~rampwork.designs.Design`; one ``case``
+    dimension, and ``kind`` is the design's: ``random``, ``sobol``,
+    ``halton`` or ``lhs``).  Build with :meth:`grid`, :meth:`cases`,
+    :meth:`single`, or a design's :meth:`random`, :meth:`sobol`,
+    :meth:`halton`, :meth:`lhs`."""
 
     axes: tuple[tuple[str, tuple[float, ...]], ...] = ()
     kind: str = "grid"
+    design: Design | None = None
 
     def __post_init__(self):
         validate.choice("sweep.kind", self.kind, SWEEP_KINDS)
+        if self.kind in DESIGN_KINDS or self.design is not None:
+            if not isinstance(self.design, Design) or self.design.kind != self.kind or self.axes:
+                raise ConfigError("sweep", f"a design is given as its recipe alone: use Sweep.{self.kind}"
+                                  "(n, seed, **ranges) or Sweep.from_design(design), got "
+                                  f"kind = {self.kind!r}, design = {self.design!r} and {len(self.axes)} axes")
+            _check_mu_names(set(self.design.names))
+            return
         seen = set()
         axes = []
         for name, values in self.axes:
@@ -285,8 +298,7 @@ class Sweep:
             seen.add(name)
             array = validate.real_array(f"sweep.{name}", values)
             axes.append((name, tuple(float(v) for v in array)))
-        if {"mu", "mu_k"} <= seen or {"mu", "mu_s"} <= seen:
-            raise ConfigError("sweep.mu", "sets mu_k = mu_s; do not combine it with mu_k or mu_s axes")
+        _check_mu_names(seen)
         if self.kind == "cases" and axes:
             lengths = {len(values) for _, values in axes}
             if len(lengths) > 1:
@@ -308,40 +320,59 @@ class Sweep:
         return cls((), "grid")
 
     @classmethod
+    def from_design(cls, design: Design) -> "Sweep":
+        """The sweep of a :class:`~rampwork.designs.Design` (its recipe)."""
+        if not isinstance(design, Design):
+            raise ConfigError("sweep", f"expected a rampwork.designs.Design, got {type(design).__name__}")
+        return cls((), design.kind, design)
+
+    @classmethod
     def random(cls, n: int, seed: int = 0, log: tuple[str, ...] = (), **ranges) -> "Sweep":
-        """``n`` cases drawn uniformly from ``ranges`` (name -> (low, high));
-        names in ``log`` are drawn uniformly in their logarithm (low > 0)."""
-        n = validate.integer("sweep.n", n, 1)
-        seed = validate.integer("sweep.seed", seed, 0)
-        rng = np.random.default_rng(seed)
-        columns = {}
-        for name, bounds in ranges.items():
-            where = f"sweep.{name}"
-            if not isinstance(bounds, (tuple, list)) or len(bounds) != 2:
-                raise ConfigError(where, f"expected (low, high), got {bounds!r}")
-            low, high = validate.real(where, bounds[0]), validate.real(where, bounds[1])
-            if not low <= high:
-                raise ConfigError(where, f"low must be <= high, got ({low}, {high})")
-            if name in log:
-                if low <= 0:
-                    raise ConfigError(where, f"log-uniform needs low > 0, got {low}")
-                columns[name] = np.exp(rng.uniform(np.log(low), np.log(high), n))
-            else:
-                columns[name] = rng.uniform(low, high, n)
-        unknown = set(log) - set(ranges)
-        if unknown:
-            raise ConfigError("sweep.log", f"names not among the ranges: {sorted(unknown)}")
-        return cls.cases(**columns)
+        """``n`` cases drawn independently and uniformly from ``ranges`` (name ->
+        (low, high)); names in ``log`` are drawn uniformly in their logarithm
+        (low > 0).  Stored as its recipe and drawn chunk by chunk: case i's
+        values depend on (n, seed, ranges) and i only (see
+        :mod:`rampwork.designs`); at most 1e8 cases."""
+        return cls.from_design(Design.from_ranges("random", n, seed, log, **ranges))
+
+    @classmethod
+    def sobol(cls, n: int, seed: int = 0, log: tuple[str, ...] = (), **ranges) -> "Sweep":
+        """A scrambled Sobol' design of ``n`` cases (a power of 2), scipy's
+        ``qmc.Sobol(d, scramble=True, rng=seed)`` scaled to ``ranges``; as
+        :meth:`random` otherwise."""
+        return cls.from_design(Design.from_ranges("sobol", n, seed, log, **ranges))
+
+    @classmethod
+    def halton(cls, n: int, seed: int = 0, log: tuple[str, ...] = (), **ranges) -> "Sweep":
+        """A scrambled Halton design, scipy's ``qmc.Halton(d, scramble=True,
+        rng=seed)`` scaled to ``ranges``; as :meth:`random` otherwise."""
+        return cls.from_design(Design.from_ranges("halton", n, seed, log, **ranges))
+
+    @classmethod
+    def lhs(cls, n: int, seed: int = 0, log: tuple[str, ...] = (), **ranges) -> "Sweep":
+        """A Latin hypercube design of ``n`` cases: on each axis every one of
+        ``n`` equal strata (in the logarithm for ``log`` names) holds one case;
+        as :meth:`random` otherwise (strata: see :mod:`rampwork.designs`)."""
+        return cls.from_design(Design.from_ranges("lhs", n, seed, log, **ranges))
 
     @property
     def names(self) -> tuple[str, ...]:
+        if self.design is not None:
+            return self.design.names
         return tuple(name for name, _ in self.axes)
 
     def values(self, name: str) -> np.ndarray:
+        """One axis's values (a design's are drawn: all ``n`` of them)."""
+        if self.design is not None:
+            if name not in self.design.names:
+                raise KeyError(name)
+            return self.design.draw()[name]
         return np.array(dict(self.axes)[name])
 
     @property
     def shape(self) -> tuple[int, ...]:
+        if self.design is not None:
+            return (self.design.n,)
         if self.kind == "cases":
             return (len(self.axes[0][1]),) if self.axes else (1,)
         return tuple(len(values) for _, values in self.axes)
@@ -352,6 +383,11 @@ class Sweep:
 
     @property
     def dims(self) -> tuple[str, ...]:
-        if self.kind == "cases":
+        if self.kind != "grid":
             return ("case",)
         return self.names
+
+
+def _check_mu_names(names: set) -> None:
+    if {"mu", "mu_k"} <= names or {"mu", "mu_s"} <= names:
+        raise ConfigError("sweep.mu", "sets mu_k = mu_s; do not combine it with mu_k or mu_s axes")

@@ -53,7 +53,8 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
 
     [sweep]            # optional: without it, one trajectory
     kind = "grid"      # "grid" (outer product, one dimension per axis, in file order),
-                       # "cases" (all axes one length, one `case` dimension) or "random"
+                       # "cases" (all axes one length, one `case` dimension), or a
+                       # design: "random", "sobol", "halton", "lhs" (below)
     [sweep.axes]       # names: mu, mu_k, mu_s, x0, v0, m, g, drag_linear,
                        # drag_quadratic, or a ramp parameter
     mu = [0.1, 0.2, 0.3]                           # explicit list
@@ -62,11 +63,15 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     curvature = { arange = [0.5, 2.0, 0.5] }       # start, stop, step: numpy's arange,
                                                    # stop excluded (careful with float ends)
 
-A random design draws ``n`` cases (a ``case`` dimension, like ``kind = "cases"``)::
+A design draws ``n`` cases (a ``case`` dimension, like ``kind = "cases"``)
+from its recipe, chunk by chunk: case i's values depend on the recipe and i
+only (see :mod:`rampwork.designs`)::
 
     [sweep]
-    kind = "random"
-    n = 1000
+    kind = "random"    # independent uniform draws; or "sobol" (scrambled Sobol',
+                       # n a power of 2), "halton" (scrambled Halton) or "lhs"
+                       # (Latin hypercube)
+    n = 1000           # at most 1e8
     seed = 1           # default 0
     [sweep.axes]
     mu = { uniform = [0.05, 0.4] }
@@ -82,9 +87,9 @@ trajectories is refused with a one-line :class:`~rampwork.errors.ConfigError`
 naming the file and the key, before anything is allocated or run.
 
 :func:`dump_scene` writes every setting explicitly (defaults included) and a
-random design as the ``"cases"`` it drew, with exact values (floats by
-``repr``), so that ``parse_scene(dump_scene(scene, sweep))`` gives back equal
-objects; an evenly spaced axis is written as its ``linspace`` when that
+design as its recipe (a few lines, whatever ``n``), with exact values (floats
+by ``repr``), so that ``parse_scene(dump_scene(scene, sweep))`` gives back
+equal objects; an evenly spaced axis is written as its ``linspace`` when that
 reproduces the values bit for bit.
 """
 
@@ -100,9 +105,11 @@ from typing import Any
 
 import numpy as np
 
+from .designs import DESIGN_KINDS, LAWS, Design, DesignAxis
 from .errors import ConfigError
 from .ramps import CALLABLE, FAMILIES, Ramp
 from .scene import DIAGNOSTICS, SCENE_AXES, Drag, Friction, Integrator, Record, Scene, Sweep
+from .validate import MAX_AXIS_POINTS, MAX_TRAJECTORIES
 
 __all__ = [
     "MAX_AXIS_POINTS",
@@ -115,10 +122,6 @@ __all__ = [
     "scene_from_dict",
 ]
 
-#: the most values one sweep axis (or a random design) may have
-MAX_AXIS_POINTS = 10**8
-#: the most trajectories one sweep may have
-MAX_TRAJECTORIES = 10**9
 #: the largest scene file read (bytes): a scene is a few lines; this bounds
 #: what a wrong path such as /dev/zero or a multi-gigabyte file can cost
 MAX_SCENE_BYTES = 64 << 20
@@ -130,9 +133,9 @@ DRAG_KEYS = ("linear", "quadratic")
 INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max", "closed_form")
 RECORD_KEYS = ("count", "every", "max_samples", "indices")
 SWEEP_KEYS = ("kind", "axes", "n", "seed")
-FILE_SWEEP_KINDS = ("grid", "cases", "random")
+FILE_SWEEP_KINDS = ("grid", "cases") + DESIGN_KINDS
 GENERATORS = ("linspace", "logspace", "arange")
-RANDOM_GENERATORS = ("uniform", "loguniform")
+RANDOM_GENERATORS = LAWS
 
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
@@ -430,10 +433,11 @@ def _ramp(table: dict) -> Ramp:
 
 
 def _axis_length(where: str, spec, random: bool) -> tuple[str, Any, int]:
-    """(kind, arguments, number of values) of one axis, checked, not expanded."""
+    """(kind, arguments, number of values) of one axis, checked, not expanded
+    (``random``: of a design)."""
     if random:
         if not isinstance(spec, dict):
-            raise ConfigError(where, f"a random design draws each axis from {{ uniform = [low, high] }} "
+            raise ConfigError(where, f"a design draws each axis from {{ uniform = [low, high] }} "
                               f"or {{ loguniform = [low, high] }}, got {_short(spec)}")
         allowed = RANDOM_GENERATORS
     elif isinstance(spec, list):
@@ -511,11 +515,12 @@ def _sweep(table, scene: Scene) -> Sweep:
     if kind not in FILE_SWEEP_KINDS:
         raise ConfigError("sweep.kind", f"unknown value {_short(kind)}; allowed: "
                           f"{', '.join(map(repr, FILE_SWEEP_KINDS))}")
-    random = kind == "random"
+    random = kind in DESIGN_KINDS
     if not random:
         for key in ("n", "seed"):
             if key in table:
-                raise ConfigError(f"sweep.{key}", f"only used with kind = \"random\" (this sweep is {_short(kind)})")
+                raise ConfigError(f"sweep.{key}", f"only used by a design (kind = "
+                                  f"{' | '.join(map(repr, DESIGN_KINDS))}; this sweep is {_short(kind)})")
     axes = _table("sweep.axes", table.get("axes", {}))
     allowed = scene.axis_names
     for name in axes:
@@ -528,14 +533,13 @@ def _sweep(table, scene: Scene) -> Sweep:
     try:
         if random:
             if "n" not in table:
-                raise ConfigError("sweep.n", "required with kind = \"random\": the number of cases")
-            n = _integer("sweep.n", table["n"], 1, MAX_AXIS_POINTS)
+                raise ConfigError("sweep.n", f"required with kind = {kind!r}: the number of cases")
+            n = _integer("sweep.n", table["n"], 1)  # the design checks the rest
             seed = _integer("sweep.seed", table.get("seed", 0), 0)
             if not plans:
-                raise ConfigError("[sweep.axes]", "a random design needs at least one axis")
-            ranges = {name: args for name, (_, args, _) in plans.items()}
-            log = tuple(name for name, (gen, _, _) in plans.items() if gen == "loguniform")
-            return Sweep.random(n, seed, log=log, **ranges)
+                raise ConfigError("[sweep.axes]", f"a {kind} design needs at least one axis")
+            axes = tuple(DesignAxis(name, *args, law) for name, (law, args, _) in plans.items())
+            return Sweep.from_design(Design(kind, n, seed, axes))
 
         lengths = {name: length for name, (_, _, length) in plans.items()}
         if kind == "grid":
@@ -673,7 +677,15 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
     if record.indices is not None:
         lines.append(f"indices = {_toml_array('record.indices', [int(i) for i in record.indices])}")
 
-    if sweep is not None:
+    if sweep is not None and sweep.design is not None:
+        design = sweep.design
+        lines += ["", "[sweep]", f"kind = {_toml_string(design.kind)}", f"n = {design.n}",
+                  f"seed = {design.seed}", "", "[sweep.axes]"]
+        for axis in design.axes:
+            where = f"sweep.axes.{axis.name}"
+            lines.append(f"{_toml_key(axis.name)} = {{ {axis.law} = [{_toml_float(where, axis.low)}, "
+                         f"{_toml_float(where, axis.high)}] }}")
+    elif sweep is not None:
         lines += ["", "[sweep]", f"kind = {_toml_string(sweep.kind)}", "", "[sweep.axes]"]
         for name, values in sweep.axes:
             lines.append(f"{_toml_key(name)} = {_axis_text(name, values)}")

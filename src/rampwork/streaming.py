@@ -23,7 +23,9 @@ renamed to the target.
 
 Memory: a chunk's inputs, raw and reduced outputs (about 300 bytes per
 trajectory), whatever the sweep size. A ``cases`` sweep also holds its axis
-columns (the :class:`~rampwork.scene.Sweep` object keeps them).
+columns (the :class:`~rampwork.scene.Sweep` object keeps them); a design
+holds its recipe, and each chunk draws its own values (written with the
+chunk's results as the ``case`` coordinates).
 """
 
 from __future__ import annotations
@@ -115,6 +117,8 @@ def run_digest(plan: runner.RunPlan) -> str:
     """Names the results a run produces: the scene, its sweep and the version
     that computes them. A partial file is resumed only with the same digest."""
     text = runner.scene_text(plan.scene, plan.sweep)
+    if plan.sweep.design is not None:  # and the values its recipe gives with this numpy and scipy
+        text += f"\ndesign values {plan.sweep.design.fingerprint()}"
     return hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode()).hexdigest()
 
 
@@ -161,8 +165,9 @@ class SweepToFile:
         record = self.store.read_partial()
         digest, axis, rows = record.digest, record.axis, record.rows
         if digest != self.digest:
-            raise ConfigError(where, "was started by a different scene, sweep or rampwork version; "
-                              f"refusing to resume: pass {option('overwrite')} to start over")
+            raise ConfigError(where, "was started by a different scene, sweep or rampwork version (or, "
+                              "for a design, a numpy or scipy that draws other values); refusing to "
+                              f"resume: pass {option('overwrite')} to start over")
         layout = ChunkLayout(self.layout.shape, axis, rows)
         if chunk_size is not None and layout != self.layout:
             raise ConfigError("chunk_size", f"{chunk_size} differs from the partial run's chunks "
@@ -227,13 +232,17 @@ class SweepToFile:
         placeholders = {name: (layout.dims, np.broadcast_to(np.zeros((), schema.OUTPUTS[name].np_dtype),
                                                             layout.shape), attrs)
                         for name, attrs in layout.attrs.items()}
-        skeleton = xr.Dataset(placeholders, coords=layout.coords)
+        # no index: a design's `case` stand-in would be materialised as one
+        coords = xr.Coordinates(layout.coords, indexes={}) if layout.drawn else layout.coords
+        skeleton = xr.Dataset(placeholders, coords=coords)
+        # a design's coordinates come with each chunk's results, as its outputs do;
         # one chunk of the file per chunk of the run: concurrent writers never share one
-        chunks = {name: self.layout.chunksizes for name in layout.attrs} if layout.shape else {}
+        deferred = tuple(layout.attrs) + layout.drawn
+        chunks = {name: self.layout.chunksizes for name in deferred} if layout.shape else {}
         attrs = runner.attributes(self.plan, 0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
         attrs.update({DIGEST_ATTR: self.digest, LAYOUT_ATTR: np.array([self.layout.axis, self.layout.rows]),
                       RUN_TIME_ATTR: 0.0})
-        self.store.create(skeleton, tuple(layout.attrs), chunks, attrs, self.done)
+        self.store.create(skeleton, deferred, chunks, attrs, self.done)
 
     def _finalise(self, run_seconds: float, info: dict) -> None:
         # chunk by chunk: memory stays bounded

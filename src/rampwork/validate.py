@@ -10,6 +10,11 @@ import numpy as np
 
 from .errors import ConfigError
 
+#: the most values one sweep axis (or cases one design) may have
+MAX_AXIS_POINTS = 10**8
+#: the most trajectories one grid sweep may have
+MAX_TRAJECTORIES = 10**9
+
 
 def real(where: str, value) -> float:
     """A finite real number (bools, strings and NaN/inf refused)."""
