@@ -190,7 +190,8 @@ def test_kernel_variant_derives_its_facts_and_refuses_bad_knobs():
 
     euler = KernelVariant("quadratic", "euler")
     assert euler.first_order and euler.linear_events and not euler.adaptive
-    assert not euler.replace(drag_linear=True).linear_events  # drag: not linear in h
+    assert euler.replace(drag_linear=True).linear_events  # drag rate of the step start: linear in h
+    assert not euler.replace(method="semi_implicit_euler").linear_events  # x gains h^2 a
     rk4 = KernelVariant("quadratic", "rk4", carry_slope=False)
     assert not rk4.first_order and not rk4.linear_events and not rk4.carry_slope
     assert rk4.constants()["WORK_SIGN_CHECK"] and not rk4.constants()["MONOTONE_STEP"]
