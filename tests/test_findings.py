@@ -423,3 +423,22 @@ def test_write_zarr_refuses_what_is_not_a_dataset_before_anything_else(tmp_path)
 
     with pytest.raises(ConfigError, match="made by rampwork"):
         rw.write_zarr({"a": 1}, tmp_path / "no-such-folder" / "x.zarr")
+
+
+def test_a_chunk_size_that_a_grid_cannot_honour_is_explained(tmp_path, capsys):
+    """--chunk-size 20000 on rows of 12,000 gives 12,000-trajectory chunks:
+    the run says so, and why (it used to say nothing)."""
+    layout = streaming.ChunkLayout.for_shape((10, 12000), 20000)
+    assert layout.trajectories == 12000 and layout.count == 10
+    text = layout.describe(("mu", "x0"), 20000)
+    assert "10 chunks of 12,000 trajectories" in text and "20,000 is rounded down" in text
+    assert streaming.ChunkLayout.for_shape((10, 12000), 24000).describe(("mu", "x0"), 24000) == \
+        "5 chunks of 24,000 trajectories"
+    scene = tmp_path / "grid.toml"
+    scene.write_text('title = "chunks"\nt_max = 0.05\n[ramp]\nfamily = "quadratic"\n'
+                     'domain = [-1.0, 1.0]\ncurvature = 1.0\n[friction]\nmu_k = 0.1\n'
+                     '[integrator]\nmethod = "euler"\ndt = 0.01\n[sweep]\nkind = "grid"\n'
+                     '[sweep.axes]\nmu = [0.1, 0.2, 0.3]\nx0 = { linspace = [-0.9, 0.9, 70] }\n')
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.nc"), "--chunk-size", "100"]) == 0
+    out = capsys.readouterr().out
+    assert "chunks       3 chunks of 70 trajectories (1 mu value x the whole x0 (70)" in out

@@ -345,6 +345,7 @@ def cmd_run(args) -> int:
     if not args.quiet:
         print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
               f"{_integration(plan)}", flush=True)
+        print(f"chunks       {job.layout.describe(plan.sweep.dims, args.chunk_size)}", flush=True)
         if job.resuming:
             print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
                   flush=True)

@@ -86,6 +86,26 @@ class ChunkLayout:
         return cls(tuple(shape), axis, rows)
 
     @property
+    def trajectories(self) -> int:
+        """Trajectories in a full chunk (the last along its axis may have fewer)."""
+        return self.rows * math.prod(self.shape[self.axis + 1:]) if self.shape else 1
+
+    def describe(self, dims: tuple[str, ...], target: int | None = None) -> str:
+        """The chunks in words, and why they hold fewer than ``target``
+        trajectories where they do: a chunk is a block of the output
+        arrays, whole along every dimension after its axis."""
+        text = f"{self.count:,} chunk{'s' if self.count != 1 else ''} of {self.trajectories:,} trajectories"
+        if not self.shape or target is None or self.trajectories == target or self.count == 1:
+            return text
+        inner = math.prod(self.shape[self.axis + 1:])
+        later = " x ".join(dims[self.axis + 1:])
+        if inner == 1:
+            return text
+        return (f"{text} ({self.rows:,} {dims[self.axis]} value{'s' if self.rows != 1 else ''} x the "
+                f"whole {later} ({inner:,}): a chunk is a block of the grid, so {target:,} is "
+                f"rounded down to whole rows)")
+
+    @property
     def _per_outer(self) -> int:
         return -(-self.shape[self.axis] // self.rows) if self.shape else 1
 
@@ -466,8 +486,11 @@ def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
     Dask worker too; netCDF suffixes are ``.nc`` (the default format),
     ``.nc4``, ``.netcdf`` and ``.cdf``, and any other is refused.
 
-    ``chunk_size``: trajectories per chunk (default ``runner.CHUNK_SIZE``);
-    each finished chunk is on disk in ``.NAME.partial`` beside ``path`` until
+    ``chunk_size``: trajectories per chunk at most (default
+    ``runner.CHUNK_SIZE``); a grid's chunk is a block of its arrays, whole
+    along every dimension after the one it cuts, so it holds a multiple of
+    those dimensions' size (``SweepToFile(...).layout.describe`` says how
+    many); each finished chunk is on disk in ``.NAME.partial`` beside ``path`` until
     the run completes and the file is renamed to ``path``.
     ``resume``: finish the unfinished run in that partial file, running only
     the chunks it lacks; refused if it was started by another scene or sweep.
