@@ -17,13 +17,14 @@ import os
 import shutil
 import signal
 import sys
-import time
 import warnings
 from importlib import resources
 from pathlib import Path
 
 from ._version import __version__
 from .errors import ClosedFormNotice, ConfigError, front_end, option
+from .terminal import (Progress, format_counts, format_seconds, scene_lines, si, status_counts,
+                       stored_sweep, sweep_shape)
 
 EXIT_OK = 0
 EXIT_ERROR = 2
@@ -150,41 +151,6 @@ def _title_of(text: str) -> str:
         return ""
 
 
-def _format_seconds(seconds: float) -> str:
-    return f"{seconds * 1e3:.1f} ms" if seconds < 1 else f"{seconds:.2f} s"
-
-
-def _si(value: float) -> str:
-    for factor, prefix in ((1e9, " G"), (1e6, " M"), (1e3, " k")):
-        if abs(value) >= factor:
-            return f"{value / factor:.3g}{prefix}"
-    return f"{value:.3g}"
-
-
-def _sweep_shape(sweep) -> str:
-    if sweep.design is not None:
-        return sweep.design.describe()
-    if not sweep.axes:
-        return "single trajectory (no sweep axes)"
-    if sweep.kind == "cases":
-        return f"cases: {sweep.size} x ({', '.join(sweep.names)})"
-    return "grid: " + " x ".join(f"{name} {len(values)}" for name, values in sweep.axes)
-
-
-def _status_counts(status) -> dict[str, int]:
-    import numpy as np
-
-    from .core.status import STATUS_NAMES
-
-    values = np.asarray(status).ravel()
-    codes, counts = np.unique(values, return_counts=True)
-    return {STATUS_NAMES.get(int(code), f"code {int(code)}"): int(count) for code, count in zip(codes, counts)}
-
-
-def _format_counts(counts: dict[str, int]) -> str:
-    return ", ".join(f"{name} {count}" for name, count in counts.items()) or "(none)"
-
-
 def _load(path: str, overrides):
     from .scenefile import load_scene
 
@@ -249,49 +215,6 @@ def _warn_shadowed(overrides, sweep) -> None:
                   file=sys.stderr)
 
 
-def _clock(seconds: float) -> str:
-    seconds = int(round(seconds))
-    hours, rest = divmod(seconds, 3600)
-    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}" if hours else f"{rest // 60}:{rest % 60:02d}"
-
-
-class _Progress:
-    """``progress(done, total)``: a bar with the rate and the time left on
-    stderr, rewritten in place on a terminal, a line every few seconds
-    elsewhere (``--progress`` into a log)."""
-
-    WIDTH = 24
-
-    def __init__(self, stream=None):
-        self.stream = sys.stderr if stream is None else stream
-        self.tty = self.stream.isatty()
-        self.interval = 0.2 if self.tty else 5.0
-        self.first = None  # (time, done) at the first call: the rate counts this run's work only
-        self.last = -float("inf")
-        self.longest = 0
-
-    def __call__(self, done: int, total: int) -> None:
-        now = time.perf_counter()
-        if self.first is None:
-            self.first = (now, done)
-        if done < total and now - self.last < self.interval:
-            return
-        self.last = now
-        started, done_before = self.first
-        rate = (done - done_before) / (now - started) if done > done_before and now > started else 0.0
-        share = done / max(total, 1)
-        filled = int(self.WIDTH * share)
-        left = _clock((total - done) / rate) if rate > 0 else "?"
-        line = (f"[{'#' * filled}{'-' * (self.WIDTH - filled)}] {100 * share:3.0f}%  "
-                f"{_si(done)}/{_si(total)} trajectories  {_si(rate)}/s  "
-                f"{_clock(now - started)} elapsed, {left} left")
-        if self.tty:  # padded over a longer previous line
-            self.longest = max(self.longest, len(line))
-            print(f"\r{line:<{self.longest}}", end="\n" if done >= total else "", file=self.stream, flush=True)
-        else:
-            print(line, file=self.stream, flush=True)
-
-
 # ----------------------------------------------------------------------------
 # commands
 # ----------------------------------------------------------------------------
@@ -343,14 +266,14 @@ def cmd_run(args) -> int:
     except ConfigError as error:
         raise _run_error(args, error) from None
     if not args.quiet:
-        print(f"{scene.title}: {sweep.size:,} trajectories ({_sweep_shape(sweep)}), "
+        print(f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}), "
               f"{_integration(plan)}", flush=True)
         print(f"chunks       {job.layout.describe(plan.sweep.dims, args.chunk_size)}", flush=True)
         if job.resuming:
             print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
                   flush=True)
         _compile_notice(plan)
-    progress = _Progress() if not args.quiet and (args.progress or sys.stderr.isatty()) else None
+    progress = Progress() if not args.quiet and (args.progress or sys.stderr.isatty()) else None
     try:
         output = job.run(progress)
     except ConfigError as error:
@@ -364,22 +287,22 @@ def cmd_run(args) -> int:
         return EXIT_OK
     with io.open_lazily(output) as dataset:
         attrs = dict(dataset.attrs)
-        counts = _status_counts(dataset["status"].values)  # one byte a trajectory
+        counts = status_counts(dataset["status"].values)  # one byte a trajectory
     run_s = float(attrs.get("run_time_s", float("nan")))
     compile_s = float(attrs.get("compile_time_s", float("nan")))
     steps = int(attrs["trajectory_steps"])
     n_trajectories = int(attrs["n_trajectories"])
     if int(attrs.get("kernel_closed_form", 0)):  # solved exactly: nothing stepped
-        rate = (f"{_si(n_trajectories / run_s)} trajectories/s" if run_s > 0
+        rate = (f"{si(n_trajectories / run_s)} trajectories/s" if run_s > 0
                 else "trajectories/s n/a") + ", closed form, no steps"
     else:
-        rate = (f"{_si(steps / run_s)} trajectory-steps/s" if run_s > 0
+        rate = (f"{si(steps / run_s)} trajectory-steps/s" if run_s > 0
                 else "trajectory-steps/s n/a") + f", {steps:,} steps"
     print(f"trajectories  {n_trajectories:,}")
     print(f"kernel        {attrs.get('kernel_effects', '')}")
-    print(f"compile time  {_format_seconds(compile_s)}")
-    print(f"run time      {_format_seconds(run_s)}  ({rate})")
-    print(f"status        {_format_counts(counts)}")
+    print(f"compile time  {format_seconds(compile_s)}")
+    print(f"run time      {format_seconds(run_s)}  ({rate})")
+    print(f"status        {format_counts(counts)}")
     print(f"wrote         {output}")
     return EXIT_OK
 
@@ -404,7 +327,7 @@ def cmd_check(args) -> int:
               f"quadratic = {scene.drag.quadratic!r} m-1")
     print(f"integrator    {_integration(plan)}, t_max = {scene.t_max!r} s{steps}")
     dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.names else "no dims"
-    print(f"sweep         {_sweep_shape(sweep)}; {dims}")
+    print(f"sweep         {sweep_shape(sweep)}; {dims}")
     print(f"trajectories  {plan.size:,}")
     print(f"kernel        {'; '.join(plan.effects)}")
     return EXIT_OK
@@ -436,18 +359,18 @@ def cmd_info(args) -> int:
     print(f"{'dimensions':<13} {dims or '(none: one trajectory)'}")
     if "n_trajectories" in attrs:
         print(f"{'trajectories':<13} {int(attrs['n_trajectories']):,}")
-    sweep = _stored_sweep(str(attrs.get("rampwork_scene", "")))
+    sweep = stored_sweep(str(attrs.get("rampwork_scene", "")))
     if sweep is not None:
         print(f"{'sweep':<13} {sweep}")
     timing = []
     for key, label in (("compile_time_s", "compile"), ("run_time_s", "run"), ("trace_time_s", "trace")):
         if key in attrs:
-            timing.append(f"{label} {_format_seconds(float(attrs[key]))}")
+            timing.append(f"{label} {format_seconds(float(attrs[key]))}")
     if timing:
         print(f"{'timing':<13} {', '.join(timing)}"
               + (f" on {int(attrs['threads'])} threads" if "threads" in attrs else ""))
     if "status" in dataset:
-        print(f"{'status':<13} {_format_counts(_status_counts(dataset['status'].values))}")
+        print(f"{'status':<13} {format_counts(status_counts(dataset['status'].values))}")
 
     def describe(title, names):
         if not names:
@@ -465,46 +388,9 @@ def cmd_info(args) -> int:
     describe("variables", list(dataset.data_vars))
     if not args.no_scene:
         print("scene:")
-        for line in _scene_lines(str(attrs.get("rampwork_scene", ""))):
+        for line in scene_lines(str(attrs.get("rampwork_scene", ""))):
             print(f"  {line}" if line else "")
     return EXIT_OK
-
-
-#: a stored scene larger than this is not parsed for `info`'s sweep line
-#: (files of rampwork <= 0.1 stored a random design's every value)
-_SUMMARY_SCENE_BYTES = 1 << 20
-#: the lines of one array that `info` prints before it elides the rest
-_ARRAY_LINES = 6
-
-
-def _stored_sweep(text: str) -> str | None:
-    """The sweep line of a stored scene (a design: its recipe), or None."""
-    from .scenefile import parse_scene
-
-    if len(text) > _SUMMARY_SCENE_BYTES:
-        return None
-    try:
-        _, sweep = parse_scene(text, "the stored scene")
-    except ConfigError:
-        return None
-    return _sweep_shape(sweep)
-
-
-def _scene_lines(text: str) -> list[str]:
-    """A stored scene's lines, each array of more than a few lines cut short
-    (a design is stored as its recipe; older files listed every value)."""
-    lines, kept = [], 0
-    for line in text.rstrip("\n").splitlines():
-        if kept and line.strip() != "]":
-            kept += 1
-            if kept <= _ARRAY_LINES:
-                lines.append(line)
-            continue
-        if kept > _ARRAY_LINES:
-            lines.append(f"    # ... {kept - _ARRAY_LINES:,} more lines of values")
-        kept = 1 if line.rstrip().endswith("= [") else 0
-        lines.append(line)
-    return lines
 
 
 # ----------------------------------------------------------------------------
