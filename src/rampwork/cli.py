@@ -359,7 +359,7 @@ def cmd_info(args) -> int:
     print(f"{'dimensions':<13} {dims or '(none: one trajectory)'}")
     if "n_trajectories" in attrs:
         print(f"{'trajectories':<13} {int(attrs['n_trajectories']):,}")
-    sweep = stored_sweep(str(attrs.get("rampwork_scene", "")))
+    sweep = stored_sweep(str(attrs.get("rampwork_scene", "")), dataset.coords)
     if sweep is not None:
         print(f"{'sweep':<13} {sweep}")
     timing = []

@@ -136,10 +136,15 @@ class ChunkLayout:
 def run_digest(plan: runner.RunPlan) -> str:
     """Names the results a run produces: the scene, its sweep and the version
     that computes them. A partial file is resumed only with the same digest."""
-    text = runner.scene_text(plan.scene, plan.sweep)
+    text = runner.scene_text(plan.scene, plan.sweep, stored=True)
     if plan.sweep.design is not None:  # and the values its recipe gives with this numpy and scipy
         text += f"\ndesign values {plan.sweep.design.fingerprint()}"
-    return hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode()).hexdigest()
+    digest = hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode())
+    if plan.sweep.design is None:  # the axes' values, bit for bit (the text may only refer to them)
+        for name, values in plan.sweep.axes:
+            digest.update(f"\naxis {name}\n".encode())
+            digest.update(np.ascontiguousarray(values, dtype="<f8").tobytes())
+    return digest.hexdigest()
 
 
 class SweepToFile:
