@@ -134,3 +134,22 @@ def test_sweep_holds_read_only_copies_and_compares_by_value():
     assert sweep != rw.Sweep.cases(mu=[0.1, 0.2, 0.3], x0=[0.0, 0.1, 0.25])
     assert sweep != rw.Sweep.grid(mu=[0.1, 0.2, 0.3], x0=[0.0, 0.1, 0.2])
     assert sweep != rw.Sweep.cases(x0=[0.0, 0.1, 0.2], mu=[0.1, 0.2, 0.3])  # the axes' order counts
+
+
+def test_rampwork_run_reruns_a_dataset_with_cases(tmp_path, capsys):
+    from rampwork.cli import main
+
+    first = rw.write_netcdf(rw.simulate(_scene(), _cases(200, seed=5), threads=1), tmp_path / "first.nc")
+    assert main(["check", str(first)]) == 0
+    again = tmp_path / "again.nc"
+    assert main(["run", str(first), "-o", str(again), "--quiet"]) == 0
+    a, b = rw.open_dataset(first), rw.open_dataset(again)
+    assert np.array_equal(a.mu.values, b.mu.values) and np.array_equal(a.v0.values, b.v0.values)
+    for name in ("status", "x_end", "W_friction"):
+        assert np.array_equal(a[name].values, b[name].values), name
+    # an override applies to the stored scene as to a file
+    changed = tmp_path / "changed.nc"
+    assert main(["run", str(first), "-o", str(changed), "--quiet", "--set", "m=2"]) == 0
+    c = rw.open_dataset(changed)
+    assert rw.scene_from_dataset(c)[0].m == 2.0
+    np.testing.assert_allclose(c.W_friction.values, 2 * a.W_friction.values, rtol=1e-12, atol=1e-15)

@@ -134,6 +134,7 @@ __all__ = [
     "apply_overrides",
     "dump_scene",
     "load_scene",
+    "load_scene_of_dataset",
     "parse_scene",
     "read_toml",
     "scene_from_dataset",
@@ -291,6 +292,21 @@ def scene_from_dataset(dataset, source: str = "the stored scene") -> tuple[Scene
     if attrs is None or "rampwork_scene" not in attrs:
         raise ConfigError(source, "not a rampwork dataset (no rampwork_scene attribute)")
     return parse_scene(str(attrs["rampwork_scene"]), source, dataset.coords)
+
+
+def load_scene_of_dataset(path: str | os.PathLike, overrides: Sequence[str] = ()) -> tuple[Scene, Sweep]:
+    """The scene and sweep that made the dataset at ``path`` (a netCDF file or
+    Zarr store written by rampwork), ``overrides`` applied as in
+    :func:`load_scene`; the axes the stored scene refers to are read from the
+    dataset's coordinates."""
+    from .io import open_dataset
+
+    source = str(path)
+    dataset = open_dataset(path)
+    data = read_toml(str(dataset.attrs["rampwork_scene"]), source)
+    if overrides:
+        apply_overrides(data, overrides)
+    return scene_from_dict(data, source, dataset.coords)
 
 
 def _read_text(path: str | os.PathLike) -> str:
