@@ -153,3 +153,18 @@ def test_rampwork_run_reruns_a_dataset_with_cases(tmp_path, capsys):
     c = rw.open_dataset(changed)
     assert rw.scene_from_dataset(c)[0].m == 2.0
     np.testing.assert_allclose(c.W_friction.values, 2 * a.W_friction.values, rtol=1e-12, atol=1e-15)
+
+
+def test_a_cases_sweep_on_dask_workers_writes_the_same_file(tmp_path):
+    """Workers get the stored scene and the case arrays (not the values as
+    text) and compute what threads compute."""
+    distributed = pytest.importorskip("distributed")
+    scene, sweep = _scene(), _cases(300, seed=7)
+    threaded = rw.open_dataset(rw.run_to_file(scene, sweep, tmp_path / "threads.nc", chunk_size=64))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        on_dask = rw.open_dataset(rw.run_to_file(scene, sweep, tmp_path / "dask.nc", chunk_size=64,
+                                                 scheduler=client))
+    assert 'coordinate = "mu", num = 300' in on_dask.attrs["rampwork_scene"]
+    for name in ("mu", "x0", "v0", "status", "x_end", "W_friction", "steps"):
+        assert np.array_equal(on_dask[name].values, threaded[name].values), name
