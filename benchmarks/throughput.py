@@ -645,8 +645,10 @@ def build_tables(res) -> tuple[str, str]:
         f"scipy: solve_ivp {SCIPY_METHOD} rtol {SCIPY_RTOL:g} atol {SCIPY_ATOL:g} per trajectory with "
         f"reversal/stick and exit events, {res.get('scipy_subset', 0)} trajectories; compared by "
         "trajectories/s (equiv steps/s = its traj/s x rampwork's steps per trajectory).",
-        f"accuracy: {res['reference']['kind']} on {res['accuracy_subset']} trajectories; errors on "
-        "trajectories with the reference's status; EB err = energy_balance_error over the whole grid.",
+        (f"accuracy: {res['reference']['kind']} on {res['accuracy_subset']} trajectories; errors on "
+         "trajectories with the reference's status; "
+         if "reference" in res else "accuracy: not compared (--accuracy-subset 0); ")
+        + "EB err = energy_balance_error over the whole grid.",
     ]
     text = "\n".join(header) + "\n\nTHROUGHPUT\n" + C.text_table(thr_head, thr_rows) \
         + "\n\nPEERS (ratios = rampwork / peer)\n" + C.text_table(peer_head, peer_rows) \

@@ -18,6 +18,7 @@ from .errors import ClosedFormNotice, ConfigError, RenamedParameterWarning
 from .io import open_dataset, write_netcdf
 from .ramps import FAMILIES, Ramp
 from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
+from .scenefile import scene_from_dataset
 from .runner import simulate
 from .sensitivity import sobol_indices
 from .streaming import run_to_file
@@ -39,6 +40,7 @@ __all__ = [
     "Sweep",
     "open_dataset",
     "run_to_file",
+    "scene_from_dataset",
     "simulate",
     "sobol_indices",
     "write_netcdf",

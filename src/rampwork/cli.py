@@ -152,8 +152,13 @@ def _title_of(text: str) -> str:
 
 
 def _load(path: str, overrides):
-    from .scenefile import load_scene
+    """A scene file, or the scene stored with a rampwork dataset (a netCDF
+    file or Zarr store, by its suffix): its long axes read from the dataset."""
+    from .io import NETCDF_SUFFIXES, ZARR_SUFFIX
+    from .scenefile import load_scene, load_scene_of_dataset
 
+    if Path(path).suffix.lower() in NETCDF_SUFFIXES + (ZARR_SUFFIX,):
+        return load_scene_of_dataset(path, overrides or ())
     return load_scene(path, overrides or ())
 
 
@@ -359,7 +364,7 @@ def cmd_info(args) -> int:
     print(f"{'dimensions':<13} {dims or '(none: one trajectory)'}")
     if "n_trajectories" in attrs:
         print(f"{'trajectories':<13} {int(attrs['n_trajectories']):,}")
-    sweep = stored_sweep(str(attrs.get("rampwork_scene", "")))
+    sweep = stored_sweep(str(attrs.get("rampwork_scene", "")), dataset.coords)
     if sweep is not None:
         print(f"{'sweep':<13} {sweep}")
     timing = []
@@ -417,7 +422,8 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                     "(memory stays bounded; an interrupted run continues with --resume), rename the "
                     "finished file to OUTPUT and print a summary: trajectories, compile and run time, "
                     "trajectory-steps per second, end statuses.")
-    run.add_argument("scene", metavar="SCENE.toml", help=f"scene file (see `{prog} example`)")
+    run.add_argument("scene", metavar="SCENE.toml", help=f"scene file (see `{prog} example`), or a "
+                     "dataset rampwork wrote (.nc or .zarr): its stored scene runs again")
     run.add_argument("-o", "--output", metavar="OUT.nc", required=True,
                      help="netCDF file to write (required; .nc, .nc4, .netcdf or .cdf), or a Zarr "
                           "store (.zarr: each chunk written where it is computed, by a Dask worker "
@@ -452,7 +458,8 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
         description="Validate SCENE (every check `run` makes before starting, without compiling "
                     "or running anything) and print the ramp, friction, integrator, the sweep's "
                     "shape and the number of trajectories.  Exit status 0 if valid, 2 if not.")
-    check.add_argument("scene", metavar="SCENE.toml", help="scene file to validate")
+    check.add_argument("scene", metavar="SCENE.toml", help="scene file to validate (or a dataset "
+                       "rampwork wrote: its stored scene)")
     check.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help=SET_HELP)
     check.set_defaults(handler=cmd_check)
 

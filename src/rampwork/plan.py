@@ -141,14 +141,14 @@ def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
         where = "sweep.x0" if "x0" in axes else "x0"
         raise ConfigError(where, f"{float(x0[outside][0])!r} is outside the ramp's domain [{lo!r}, {hi!r}]")
     for name in ("mu", "mu_k", "mu_s"):
-        if name in axes and min(axes[name]) < 0:
-            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
+        if name in axes and np.min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(np.min(axes[name]))!r}")
     for name in ("drag_linear", "drag_quadratic"):
-        if name in axes and min(axes[name]) < 0:
-            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(min(axes[name]))!r}")
+        if name in axes and np.min(axes[name]) < 0:
+            raise ConfigError(f"sweep.{name}", f"must be >= 0, got {float(np.min(axes[name]))!r}")
     for name in ("m", "g"):
-        if name in axes and min(axes[name]) <= 0:
-            raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(min(axes[name]))!r}")
+        if name in axes and np.min(axes[name]) <= 0:
+            raise ConfigError(f"sweep.{name}", f"must be > 0, got {float(np.min(axes[name]))!r}")
     _check_static_friction(scene, checked)
 
     # ramp parameters: every combination that occurs must be a valid ramp
@@ -167,8 +167,8 @@ def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
     sign = spec.curvature_sign(values, scene.ramp.domain, shared)
     check_contact = not (sign is not None and sign >= 0)
     # air drag is compiled in only where some trajectory of the run has it
-    drag_linear = bool(max(axes.get("drag_linear", (scene.drag.linear,))) > 0)
-    drag_quadratic = bool(max(axes.get("drag_quadratic", (scene.drag.quadratic,))) > 0)
+    drag_linear = bool(np.max(axes.get("drag_linear", (scene.drag.linear,))) > 0)
+    drag_quadratic = bool(np.max(axes.get("drag_quadratic", (scene.drag.quadratic,))) > 0)
     # f'' == 0 everywhere: f' is constant, the motion has a closed form (without drag)
     closed_form = (scene.integrator.closed_form and sign == 0
                    and not (drag_linear or drag_quadratic))
@@ -182,7 +182,7 @@ def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
     variant = KernelVariant(
         spec.key, CLOSED_FORM if closed_form else scene.integrator.method,
         one_sided=scene.contact == "one_sided", check_contact=check_contact,
-        carry_slope=not spec.cheap_slope, friction=bool(max(mu_k) > 0.0),
+        carry_slope=not spec.cheap_slope, friction=bool(np.max(mu_k) > 0.0),
         drag_linear=drag_linear, drag_quadratic=drag_quadratic, paper_criterion=paper_criterion,
         constant_curvature=spec.constant_curvature,
         # g and the ramp's shape the same for every trajectory (not swept)

@@ -379,7 +379,8 @@ def dataset_layout(plan: RunPlan) -> DatasetLayout:
     for name, values in sweep.axes:
         spec = schema.axis_spec(name, ramp_parameters)
         attrs = schema.spec_attrs(spec)
-        coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.asarray(values), attrs)
+        # a copy: the sweep's own arrays are read-only, a dataset's are the user's
+        coords[name] = ((sweep.dims[0] if sweep.kind == "cases" else name), np.array(values), attrs)
     if sweep.kind == "cases" and sweep.axes:
         coords["case"] = ("case", np.arange(plan.size), CASE_ATTRS)
     attrs = {name: schema.output_attrs(name) for name in plan.output_names}
@@ -416,17 +417,19 @@ def _traces(plan: RunPlan, trace_one, settings, shared) -> xr.Dataset:
     return xr.Dataset(data_vars, coords=coords)
 
 
-def scene_text(scene: Scene, sweep: Sweep) -> str:
+def scene_text(scene: Scene, sweep: Sweep, stored: bool = False) -> str:
     """The scene file that reproduces a run; for a ramp of user functions,
     which no file can hold, the same file with the ramp described in comments
-    (the rest still documents every setting)."""
+    (the rest still documents every setting).  ``stored``: the form stored
+    with the dataset, whose long explicit axes refer to its coordinates
+    (see ``scenefile.dump_scene``): a few lines whatever the sweep's size."""
     from .scenefile import dump_scene
 
     if scene.ramp.family != "callable":
-        return dump_scene(scene, sweep)
+        return dump_scene(scene, sweep, stored=stored)
     spec = scene.ramp.spec
     stand_in = scene.replace(ramp=Ramp.create("straight", slope=0.0, domain=scene.ramp.domain))
-    lines = dump_scene(stand_in, sweep).splitlines()
+    lines = dump_scene(stand_in, sweep, stored=stored).splitlines()
     start = lines.index("[ramp]")
     end = next((k for k in range(start + 1, len(lines)) if lines[k].startswith("[")), len(lines))
     note = [f"# [ramp]: user functions {spec.name!r} (Ramp.from_functions) on domain "
@@ -445,7 +448,7 @@ def attributes(plan: RunPlan, compile_seconds, run_seconds, threads, steps,
            else scene.integrator.describe())
     return schema.global_attrs(
         scene.title,
-        scene_text(scene, plan.sweep),
+        scene_text(scene, plan.sweep, stored=True),
         f"{entry}: {plan.size} trajectories, {how}",
         {
             "ramp_family": scene.ramp.family,

@@ -264,7 +264,7 @@ class Scene:
         return SCENE_AXES + self.ramp.spec.parameter_names
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Sweep:
     """Values to run a scene over: a full ``grid`` (outer product of the axes,
     one output dimension per axis, in the given order), ``cases`` (every axis
@@ -273,9 +273,14 @@ class Sweep:
     dimension, and ``kind`` is the design's: ``random``, ``sobol``,
     ``halton`` or ``lhs``).  Build with :meth:`grid`, :meth:`cases`,
     :meth:`single`, or a design's :meth:`random`, :meth:`sobol`,
-    :meth:`halton`, :meth:`lhs`."""
+    :meth:`halton`, :meth:`lhs`.
 
-    axes: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    ``axes``: (name, values) pairs, the values a read-only float64 copy of
+    those given (an array, not a tuple of Python floats: a sweep of 1e6
+    cases costs no per-value Python work).  Sweeps are equal when their
+    kinds, designs, names and values (``np.array_equal``) are."""
+
+    axes: tuple[tuple[str, np.ndarray], ...] = ()
     kind: str = "grid"
     design: Design | None = None
 
@@ -296,8 +301,9 @@ class Sweep:
             if name in seen:
                 raise ConfigError(f"sweep.{name}", "given twice")
             seen.add(name)
-            array = validate.real_array(f"sweep.{name}", values)
-            axes.append((name, tuple(float(v) for v in array)))
+            array = np.array(validate.real_array(f"sweep.{name}", values), dtype=np.float64)
+            array.flags.writeable = False  # a copy the caller cannot change under the sweep
+            axes.append((name, array))
         _check_mu_names(seen)
         if self.kind == "cases" and axes:
             lengths = {len(values) for _, values in axes}
@@ -305,6 +311,18 @@ class Sweep:
                 raise ConfigError("sweep", "cases need axes of one length, got "
                                   + ", ".join(f"{n}: {len(v)}" for n, v in axes))
         object.__setattr__(self, "axes", tuple(axes))
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Sweep):
+            return NotImplemented
+        return (self.kind == other.kind and self.design == other.design
+                and len(self.axes) == len(other.axes)
+                and all(a == b and np.array_equal(u, v)
+                        for (a, u), (b, v) in zip(self.axes, other.axes)))
+
+    def __hash__(self) -> int:
+        return hash((self.kind, self.design,
+                     tuple((name, values.tobytes()) for name, values in self.axes)))
 
     @classmethod
     def grid(cls, **axes) -> "Sweep":

@@ -91,6 +91,23 @@ design as its recipe (a few lines, whatever ``n``), with exact values (floats
 by ``repr``), so that ``parse_scene(dump_scene(scene, sweep))`` gives back
 equal objects; an evenly spaced axis is written as its ``linspace`` when that
 reproduces the values bit for bit.
+
+Stored scenes
+=============
+
+The scene stored with a dataset (``rampwork_scene``, written by
+``dump_scene(..., stored=True)``) does not list an axis of more than
+:data:`INLINE_VALUES` explicit values (a ``Sweep.cases`` list, a long grid
+axis): those values are the dataset's own coordinate of the axis's name, and
+the file refers to it, so that the text stays a few lines whatever the
+sweep's size::
+
+    [sweep.axes]
+    mu = { coordinate = "mu", num = 200000 }   # the dataset's coordinate `mu`
+
+:func:`scene_from_dataset` reads such a scene back with its values (as does
+:func:`parse_scene` given ``coordinates``); read without them it is refused
+with a ConfigError that says so.
 """
 
 from __future__ import annotations
@@ -117,10 +134,18 @@ __all__ = [
     "apply_overrides",
     "dump_scene",
     "load_scene",
+    "load_scene_of_dataset",
     "parse_scene",
     "read_toml",
+    "scene_from_dataset",
     "scene_from_dict",
 ]
+
+#: an explicit axis of more values than this is stored by reference to the
+#: dataset's coordinate (``{ coordinate = NAME, num = N }``) in a stored scene
+INLINE_VALUES = 64
+#: the key of such a reference (the coordinate's name) and its length
+COORDINATE_KEYS = ("coordinate", "num")
 
 #: the largest scene file read (bytes): a scene is a few lines; this bounds
 #: what a wrong path such as /dev/zero or a multi-gigabyte file can cost
@@ -248,10 +273,40 @@ def read_toml(text: str, source: str = "<string>") -> dict:
                           "each other hundreds of levels deep)") from None
 
 
-def parse_scene(text: str, source: str = "<string>") -> tuple[Scene, Sweep]:
+def parse_scene(text: str, source: str = "<string>",
+                coordinates: Mapping | None = None) -> tuple[Scene, Sweep]:
     """The scene and sweep described by the TOML ``text`` (format in the module
-    docstring).  Errors: :class:`ConfigError` naming ``source`` and the key."""
-    return scene_from_dict(read_toml(text, source), source)
+    docstring).  Errors: :class:`ConfigError` naming ``source`` and the key.
+    ``coordinates``: name -> values of the dataset a stored scene came with
+    (its axes written as ``{ coordinate = NAME, num = N }`` read them)."""
+    return scene_from_dict(read_toml(text, source), source, coordinates)
+
+
+def scene_from_dataset(dataset, source: str = "the stored scene") -> tuple[Scene, Sweep]:
+    """The scene and sweep that made ``dataset`` (an ``xarray.Dataset`` from
+    :func:`rampwork.simulate` or :func:`rampwork.open_dataset`): its
+    ``rampwork_scene`` attribute, with the axes stored by reference read from
+    the dataset's coordinates.  ``rampwork.simulate(*scene_from_dataset(ds))``
+    runs it again."""
+    attrs = getattr(dataset, "attrs", None)
+    if attrs is None or "rampwork_scene" not in attrs:
+        raise ConfigError(source, "not a rampwork dataset (no rampwork_scene attribute)")
+    return parse_scene(str(attrs["rampwork_scene"]), source, dataset.coords)
+
+
+def load_scene_of_dataset(path: str | os.PathLike, overrides: Sequence[str] = ()) -> tuple[Scene, Sweep]:
+    """The scene and sweep that made the dataset at ``path`` (a netCDF file or
+    Zarr store written by rampwork), ``overrides`` applied as in
+    :func:`load_scene`; the axes the stored scene refers to are read from the
+    dataset's coordinates."""
+    from .io import open_dataset
+
+    source = str(path)
+    dataset = open_dataset(path)
+    data = read_toml(str(dataset.attrs["rampwork_scene"]), source)
+    if overrides:
+        apply_overrides(data, overrides)
+    return scene_from_dict(data, source, dataset.coords)
 
 
 def _read_text(path: str | os.PathLike) -> str:
@@ -322,15 +377,17 @@ def apply_overrides(data: dict, overrides: Sequence[str]) -> dict:
     return data
 
 
-def scene_from_dict(data: Mapping, source: str = "<dict>") -> tuple[Scene, Sweep]:
-    """The scene and sweep described by a parsed TOML document."""
+def scene_from_dict(data: Mapping, source: str = "<dict>",
+                    coordinates: Mapping | None = None) -> tuple[Scene, Sweep]:
+    """The scene and sweep described by a parsed TOML document (``coordinates``:
+    see :func:`parse_scene`)."""
     try:
         if not isinstance(data, Mapping):
             raise ConfigError("", f"expected a table of settings, got {_type_name(data)}")
         data = dict(data)
         _check_keys("", data, TOP_KEYS)
         scene = _scene(data)
-        sweep = _sweep(data.get("sweep"), scene)
+        sweep = _sweep(data.get("sweep"), scene, coordinates)
         _check_record_indices(scene, sweep)
     except ConfigError as error:
         raise _located(source, error) from None
@@ -432,9 +489,39 @@ def _ramp(table: dict) -> Ramp:
 # -- sweeps -------------------------------------------------------------------
 
 
-def _axis_length(where: str, spec, random: bool) -> tuple[str, Any, int]:
+def _stored_axis(where: str, spec: dict, coordinates: Mapping | None) -> tuple[str, Any, int]:
+    """An axis stored as ``{ coordinate = NAME, num = N }``: the dataset's
+    coordinate NAME, which must hold N finite values."""
+    for key in spec:
+        if key not in COORDINATE_KEYS:
+            raise _unknown(where, key, COORDINATE_KEYS)
+    if "num" not in spec:
+        raise ConfigError(where, "{ coordinate = NAME, num = N } needs num, the number of values")
+    name = _string(f"{where}.coordinate", spec["coordinate"])
+    num = _integer(f"{where}.num", spec["num"], 1, MAX_TRAJECTORIES)
+    if coordinates is None:
+        raise ConfigError(where, f"the {num:,} values are the dataset's coordinate {name!r} (a "
+                          "scene stored with its dataset): read it with "
+                          "rampwork.scene_from_dataset(dataset)")
+    if name not in coordinates:
+        raise ConfigError(where, f"the dataset has no coordinate {name!r}")
+    try:
+        values = np.asarray(coordinates[name], dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ConfigError(where, f"coordinate {name!r} is not numbers: {_one_line(error)}") from None
+    if values.ndim != 1 or values.size != num:
+        raise ConfigError(where, f"coordinate {name!r} has shape {values.shape}, expected ({num},)")
+    if not np.isfinite(values).all():
+        raise ConfigError(where, f"coordinate {name!r} holds NaN or infinite values")
+    return "list", values, num
+
+
+def _axis_length(where: str, spec, random: bool,
+                 coordinates: Mapping | None = None) -> tuple[str, Any, int]:
     """(kind, arguments, number of values) of one axis, checked, not expanded
-    (``random``: of a design)."""
+    (``random``: of a design; ``coordinates``: a stored scene's dataset's)."""
+    if not random and isinstance(spec, dict) and "coordinate" in spec:
+        return _stored_axis(where, spec, coordinates)
     if random:
         if not isinstance(spec, dict):
             raise ConfigError(where, f"a design draws each axis from {{ uniform = [low, high] }} "
@@ -505,7 +592,7 @@ def _sweep_where(error: ConfigError, names: Sequence[str]) -> ConfigError:
     return error
 
 
-def _sweep(table, scene: Scene) -> Sweep:
+def _sweep(table, scene: Scene, coordinates: Mapping | None = None) -> Sweep:
     if table is None:
         return Sweep.single()
     table = _table("sweep", table)
@@ -528,7 +615,8 @@ def _sweep(table, scene: Scene) -> Sweep:
             if name in scene.ramp.spec.renamed:  # a parameter's old name
                 raise scene.ramp.spec.unknown_parameter(f"sweep.axes.{name}", name, allowed)
             raise ConfigError("[sweep.axes]", f"unknown axis {_short(name)}; allowed: {', '.join(allowed)}")
-    plans = {name: _axis_length(f"sweep.axes.{name}", spec, random) for name, spec in axes.items()}
+    plans = {name: _axis_length(f"sweep.axes.{name}", spec, random, coordinates)
+             for name, spec in axes.items()}
 
     try:
         if random:
@@ -619,19 +707,36 @@ def _toml_array(where: str, values, width: int = 96) -> str:
     return "[\n" + "".join(f"    {r.rstrip()}\n" for r in rows) + "]"
 
 
-def _axis_text(name: str, values: Sequence[float]) -> str:
+def _evenly_spaced(array: np.ndarray) -> bool:
+    """Whether ``np.linspace(first, last, size)`` gives ``array`` bit for bit
+    (a few values checked first: most lists that are not fail there)."""
+    size = array.size
+    probe = np.unique(np.linspace(0, size - 1, min(size, 9)).round().astype(np.int64))
+    step = (array[-1] - array[0]) / (size - 1)
+    scale = max(abs(array[0]), abs(array[-1]))
+    if not np.allclose(array[probe], array[0] + probe * step, rtol=1e-9, atol=1e-9 * scale):
+        return False
+    spaced = np.linspace(array[0], array[-1], size)
+    return bool(np.array_equal(spaced.view(np.int64), array.view(np.int64)))
+
+
+def _axis_text(name: str, values: Sequence[float], stored: bool = False) -> str:
     array = np.asarray(values, dtype=np.float64)
-    if array.size >= 4:
-        spaced = np.linspace(array[0], array[-1], array.size)
-        if spaced.tobytes() == array.tobytes():
+    if array.size >= 4 and _evenly_spaced(array):
             return (f"{{ linspace = [{_toml_float(name, array[0])}, {_toml_float(name, array[-1])}, "
                     f"{array.size}] }}")
+    if stored and array.size > INLINE_VALUES:
+        return f"{{ coordinate = {_toml_string(name)}, num = {array.size} }}"
     return _toml_array(f"sweep.axes.{name}", [float(v) for v in values])
 
 
-def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
+def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False) -> str:
     """``scene`` and ``sweep`` as scene-file TOML text that :func:`parse_scene`
-    reads back to equal objects.  Callable ramps cannot be written."""
+    reads back to equal objects.  Callable ramps cannot be written.
+
+    ``stored``: the text stored with the dataset of the run: an axis of more
+    than :data:`INLINE_VALUES` explicit values refers to the dataset's
+    coordinate instead of listing them (read back by :func:`scene_from_dataset`)."""
     if not isinstance(scene, Scene):
         raise ConfigError("scene", f"expected a rampwork.Scene, got {_type_name(scene)}")
     if sweep is not None and not isinstance(sweep, Sweep):
@@ -687,6 +792,9 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None) -> str:
                          f"{_toml_float(where, axis.high)}] }}")
     elif sweep is not None:
         lines += ["", "[sweep]", f"kind = {_toml_string(sweep.kind)}", "", "[sweep.axes]"]
-        for name, values in sweep.axes:
-            lines.append(f"{_toml_key(name)} = {_axis_text(name, values)}")
+        texts = [(name, _axis_text(name, values, stored)) for name, values in sweep.axes]
+        if any(text.startswith("{ coordinate") for _, text in texts):
+            lines.append("# { coordinate = NAME, num = N }: the values are the dataset's coordinate NAME "
+                         "(rampwork.scene_from_dataset reads them)")
+        lines += [f"{_toml_key(name)} = {text}" for name, text in texts]
     return "\n".join(lines) + "\n"

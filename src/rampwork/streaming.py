@@ -136,10 +136,15 @@ class ChunkLayout:
 def run_digest(plan: runner.RunPlan) -> str:
     """Names the results a run produces: the scene, its sweep and the version
     that computes them. A partial file is resumed only with the same digest."""
-    text = runner.scene_text(plan.scene, plan.sweep)
+    text = runner.scene_text(plan.scene, plan.sweep, stored=True)
     if plan.sweep.design is not None:  # and the values its recipe gives with this numpy and scipy
         text += f"\ndesign values {plan.sweep.design.fingerprint()}"
-    return hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode()).hexdigest()
+    digest = hashlib.sha256(f"rampwork {__version__}\npartial {PARTIAL_FORMAT}\n{text}".encode())
+    if plan.sweep.design is None:  # the axes' values, bit for bit (the text may only refer to them)
+        for name, values in plan.sweep.axes:
+            digest.update(f"\naxis {name}\n".encode())
+            digest.update(np.ascontiguousarray(values, dtype="<f8").tobytes())
+    return digest.hexdigest()
 
 
 class SweepToFile:
@@ -300,7 +305,9 @@ class SweepToFile:
         from distributed import as_completed
 
         client, cluster = _connect(self.scheduler)
-        text = runner.scene_text(self.plan.scene, self.plan.sweep)
+        # the stored scene, its long axes shipped as arrays beside it (not as text)
+        text = _Shipped(run_digest(self.plan), runner.scene_text(self.plan.scene, self.plan.sweep, stored=True),
+                        {} if self.plan.sweep.design is not None else dict(self.plan.sweep.axes))
         info.update({"compile_time_s": 0.0, "threads": sum(client.nthreads().values()),
                      "scheduler": str(client.scheduler.address)})
         if cluster is not None:
@@ -425,19 +432,29 @@ def _connect(scheduler):
                           f"{' '.join(str(error).split())}") from None
 
 
-#: on a worker: prepared runs by scene text digest, and one kernel call at a
+@dataclass(frozen=True, eq=False)
+class _Shipped:
+    """What a worker rebuilds a run from: the stored scene text, the sweep's
+    axes as arrays (which the text may only refer to) and the run's digest."""
+
+    digest: str
+    text: str
+    coordinates: dict
+
+
+#: on a worker: prepared runs by their digest, and one kernel call at a
 #: time (a worker's threads share the kernels' thread pool)
 _WORKER_RUNS: dict[str, runner.Prepared] = {}
 _WORKER_LOCK = threading.Lock()
 
 
-def _worker_prepared(text: str) -> tuple[runner.Prepared, float]:
+def _worker_prepared(shipped: _Shipped) -> tuple[runner.Prepared, float]:
     from .scenefile import parse_scene
 
-    key = hashlib.sha256(text.encode()).hexdigest()
+    key = shipped.digest
     if key in _WORKER_RUNS:
         return _WORKER_RUNS[key], 0.0
-    scene, sweep = parse_scene(text, "scene shipped to a worker")
+    scene, sweep = parse_scene(shipped.text, "scene shipped to a worker", shipped.coordinates)
     prepared = runner.prepare(runner.plan_run(scene, sweep), "specialised")  # as the file says
     _WORKER_RUNS[key] = prepared
     return prepared, prepared.compile_seconds
@@ -452,7 +469,7 @@ def _worker_threads() -> int:
     return max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS))
 
 
-def _chunk_task(text: str, index: int, start: int, stop: int):
+def _chunk_task(text: _Shipped, index: int, start: int, stop: int):
     with _WORKER_LOCK:
         prepared, compile_seconds = _worker_prepared(text)
         threads = _worker_threads()
@@ -460,14 +477,14 @@ def _chunk_task(text: str, index: int, start: int, stop: int):
             return index, runner.run_chunk(prepared, start, stop, threads), compile_seconds
 
 
-def _chunk_store_task(text: str, index: int, start: int, stop: int, writer, where, shape):
+def _chunk_store_task(text: _Shipped, index: int, start: int, stop: int, writer, where, shape):
     """A chunk computed and written on the worker: only its index goes back."""
     index, results, compile_seconds = _chunk_task(text, index, start, stop)
     writer.write(index, where, shape, results)
     return index, None, compile_seconds
 
 
-def _traces_task(text: str):
+def _traces_task(text: _Shipped):
     with _WORKER_LOCK:
         prepared, _ = _worker_prepared(text)
         return _traces(prepared)

@@ -94,14 +94,15 @@ _SUMMARY_SCENE_BYTES = 1 << 20
 _ARRAY_LINES = 6
 
 
-def stored_sweep(text: str) -> str | None:
-    """The sweep line of a stored scene (a design: its recipe), or None."""
+def stored_sweep(text: str, coordinates=None) -> str | None:
+    """The sweep line of a stored scene (a design: its recipe), or None
+    (``coordinates``: the dataset's, which long axes refer to)."""
     from .scenefile import parse_scene
 
     if len(text) > _SUMMARY_SCENE_BYTES:
         return None
     try:
-        _, sweep = parse_scene(text, "the stored scene")
+        _, sweep = parse_scene(text, "the stored scene", coordinates)
     except ConfigError:
         return None
     return sweep_shape(sweep)

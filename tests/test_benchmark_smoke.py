@@ -1,0 +1,43 @@
+"""The benchmark scripts run end to end at tiny sizes (issue 19: throughput.py
+with --accuracy-subset 0 crashed in build_tables; overhead.py is new)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(script: str, *args: str, out: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    return subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *args, "--out", str(out)],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+
+
+def test_throughput_skips_the_accuracy_comparison(tmp_path):
+    done = _run("throughput.py", "--n", "300", "--methods", "euler", "--accuracy-subset", "0",
+                "--scipy-subset", "0", "--numpy-subset", "0", "--uniform", "0", "--no-scaling",
+                "--no-figure", out=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "accuracy: not compared (--accuracy-subset 0)" in done.stdout
+    saved = json.loads(next(tmp_path.glob("throughput-*.json")).read_text())
+    assert "reference" not in saved and "accuracy" not in saved["methods"]["euler"]
+
+
+def test_overhead_benchmark_reports_every_stage(tmp_path):
+    done = _run("overhead.py", "--methods", "euler", "dopri5", "--sizes", "100", "400",
+                "--repeat", "1", out=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    saved = json.loads(next(tmp_path.glob("overhead-*.json")).read_text())
+    points = saved["points"]
+    assert [(p["method"], p["n"]) for p in points] == [("euler", 100), ("euler", 400),
+                                                       ("dopri5", 100), ("dopri5", 400)]
+    for point in points:
+        assert 0 < point["run_time_s"] <= point["wall_s"]
+        assert point["stages_s"]["kernel"] > 0 and point["stages_s"]["attributes"] > 0
+        assert point["stored_scene_bytes"] < 1500  # 400 cases by reference, not listed
+    assert set(saved["fits"]) == {"euler", "dopri5"}
