@@ -21,7 +21,7 @@ sin, cos, sincos (the approach of fdlibm and SLEEF)
        to 0 than ~2**-61 for a double argument (Kahan and McDonald's worst
        cases), so the reduction adds far less than an ulp for |x| up to ~2**45.
     3. sin and cos of (hi + lo), |hi| <= ~pi/4, with fdlibm's kernels
-       ``__kernel_sin`` / ``__kernel_cos`` (FreeBSD msun k_sin.c and k_cos.c,
+       ``_kernel_sin`` / ``_kernel_cos`` (FreeBSD msun k_sin.c and k_cos.c,
        Sun Microsystems 1993, freely usable: degree-13 and degree-14 minimax
        polynomials with |error| < 2**-58 on [-pi/4, pi/4], and the lo part
        folded in to first order).
@@ -62,7 +62,7 @@ P3 = -1.4973849048591698e-33  # 0xB91F1976B7ED8FBC
 TWO_OVER_PI = 0.6366197723675814
 SHIFTER = 6755399441055744.0  # 1.5 * 2**52: x + SHIFTER - SHIFTER = rint(x), |x| < 2**51
 
-# fdlibm __kernel_sin: sin(x) ~ x + S1 x^3 + ... + S6 x^13 on [-pi/4, pi/4]
+# fdlibm _kernel_sin: sin(x) ~ x + S1 x^3 + ... + S6 x^13 on [-pi/4, pi/4]
 S1 = -1.66666666666666324348e-01
 S2 = 8.33333333332248946124e-03
 S3 = -1.98412698298579493134e-04
@@ -70,7 +70,7 @@ S4 = 2.75573137070700676789e-06
 S5 = -2.50507602534068634195e-08
 S6 = 1.58969099521155010221e-10
 
-# fdlibm __kernel_cos: cos(x) ~ 1 - x^2/2 + C1 x^4 + ... + C6 x^14 on [-pi/4, pi/4]
+# fdlibm _kernel_cos: cos(x) ~ 1 - x^2/2 + C1 x^4 + ... + C6 x^14 on [-pi/4, pi/4]
 C1 = 4.16666666666666019037e-02
 C2 = -1.38888888888741095749e-03
 C3 = 2.48015872894767294178e-05
@@ -102,8 +102,8 @@ def _reduce(x):
 
 
 @jit
-def _kernel_sin(x, y):
-    """sin(x + y) for |x| <= ~pi/4, |y| <= ~ulp(x) (fdlibm __kernel_sin, iy = 1)."""
+def kernel_sin(x, y):
+    """sin(x + y) for |x| <= ~pi/4, |y| <= ~ulp(x) (fdlibm _kernel_sin, iy = 1)."""
     z = x * x
     w = z * z
     r = S2 + z * (S3 + z * S4) + z * w * (S5 + z * S6)
@@ -112,8 +112,8 @@ def _kernel_sin(x, y):
 
 
 @jit
-def _kernel_cos(x, y):
-    """cos(x + y) for |x| <= ~pi/4, |y| <= ~ulp(x) (fdlibm __kernel_cos)."""
+def kernel_cos(x, y):
+    """cos(x + y) for |x| <= ~pi/4, |y| <= ~ulp(x) (fdlibm _kernel_cos)."""
     z = x * x
     w = z * z
     r = z * (C1 + z * (C2 + z * C3)) + w * w * (C4 + z * (C5 + z * C6))
@@ -126,8 +126,8 @@ def _kernel_cos(x, y):
 def sincos(x):
     """(sin(x), cos(x)), vectorisable; error in the module docstring."""
     hi, lo, q = _reduce(x)
-    s = _kernel_sin(hi, lo)
-    c = _kernel_cos(hi, lo)
+    s = kernel_sin(hi, lo)
+    c = kernel_cos(hi, lo)
     odd = (q & 1) != 0
     sin_abs = c if odd else s
     cos_abs = s if odd else c
