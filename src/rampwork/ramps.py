@@ -24,6 +24,7 @@ import numpy as np
 
 from . import validate
 from .core import ramps as core
+from .core.vmath import VALID_ARGUMENT as VALID_SINE_ARGUMENT
 from .core.jit import jit, specialise
 from .errors import ConfigError, RenamedParameterWarning, warn
 from .userfunctions import content_digest
@@ -298,6 +299,21 @@ class _Cycloid(RampFamily):
 
 
 class _Sine(RampFamily):
+    def _check_family(self, arrays, lo, hi, shared):
+        # the core's sin/cos (core.vmath) are accurate to 1 ulp for arguments
+        # within +-VALID_ARGUMENT; the argument k*x + phase is linear in x, so
+        # its extremes on the domain are at the ends (the core's arithmetic)
+        k, phase = np.broadcast_arrays(arrays["wavenumber"], arrays["phase"])
+        theta = np.maximum(np.abs(k * lo + phase), np.abs(k * hi + phase))
+        bad = ~(theta <= VALID_SINE_ARGUMENT)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError(
+                "ramp.wavenumber",
+                f"wavenumber*x + phase reaches {_fmt(theta.ravel()[i])} on the domain [{lo!r}, {hi!r}] with "
+                f"wavenumber = {_fmt(k.ravel()[i])}, phase = {_fmt(phase.ravel()[i])}{_at(k.ravel(), i)}; "
+                f"it must stay within +-{VALID_SINE_ARGUMENT:g} rad (where sin and cos are accurate to 1 ulp)")
+
     def curvature_sign(self, values, domain, shared=None):
         a = np.asarray(values["amplitude"], dtype=float)
         k = np.asarray(values["wavenumber"], dtype=float)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 
+from . import vmath
 from .jit import fma, jit
 
 # ---------------------------------------------------------------------------
@@ -233,17 +234,20 @@ def cycloid_parameter(x, r):
 # ---------------------------------------------------------------------------
 # sine on a slope: y = mean_slope*x + amplitude*sin(wavenumber*x + phase)
 # p0 = mean_slope (dy/dx), p1 = amplitude, p2 = wavenumber, p3 = phase
+# sin and cos from vmath (no libm call: the lane loops vectorise), accurate to
+# 1 ulp for |wavenumber*x + phase| <= vmath.VALID_ARGUMENT, which the family's
+# validation guarantees on the domain (rampwork.ramps._Sine)
 
 
 @jit
 def sine_height(x, p0, p1, p2, p3, shared):
-    return p0 * x + p1 * math.sin(p2 * x + p3)
+    return p0 * x + p1 * vmath.sin(p2 * x + p3)
 
 
 @jit
 def sine_slope_curvature(x, p0, p1, p2, p3, shared):
-    theta = p2 * x + p3
-    return p0 + p1 * p2 * math.cos(theta), -p1 * p2 * p2 * math.sin(theta)
+    s, c = vmath.sincos(p2 * x + p3)
+    return p0 + p1 * p2 * c, -p1 * p2 * p2 * s
 
 
 # ---------------------------------------------------------------------------
