@@ -27,7 +27,6 @@ any other (``lifted_off``, ``timeout``, ``diverged``, a NaN output) raises
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 
 import numpy as np
@@ -35,6 +34,7 @@ import xarray as xr
 
 from . import schema, validate
 from .core.status import STATUS_NAMES
+from .designs import DesignAxis
 from .errors import ConfigError
 from .plan import plan_run
 from .runner import scene_text, simulate
@@ -113,15 +113,12 @@ def _check_n(n) -> int:
 
 
 def _scale(unit: np.ndarray, low, high, is_log) -> np.ndarray:
-    """Points of the unit cube mapped onto the ranges (log-uniform axes: in their logarithm)."""
-    out = np.empty_like(unit)
-    for j in range(unit.shape[1]):
-        if is_log[j]:
-            a, b = math.log(low[j]), math.log(high[j])
-            out[:, j] = np.exp(a + unit[:, j] * (b - a))
-        else:
-            out[:, j] = low[j] + unit[:, j] * (high[j] - low[j])
-    return out
+    """Points of the unit cube mapped onto the ranges, as a design's axes map
+    them (log-uniform axes: in their logarithm)."""
+    return np.column_stack([
+        DesignAxis(f"axis {j}", lo, hi, "loguniform" if g else "uniform").values(
+            np.ascontiguousarray(unit[:, j]))
+        for j, (lo, hi, g) in enumerate(zip(low, high, is_log))])
 
 
 def _salib():

@@ -287,14 +287,13 @@ def _locate_dense(kind, lanes, i, dense, h, theta_end, value_end, settings, shar
     holds at the step start."""
     a = 0.0
     fa = dense_value(kind, lanes, i, dense, h, 0.0, settings, shared)
-    if kind == EV_REVERSAL and fa == 0.0:
-        # a departure from rest: d v = 0 at the start and > 0 just after it
-        # (the acceleration points along d), so the reversal that the step's
-        # end shows is the return later in the step (a long step at a loose
-        # tolerance swings there and back), not the start: answering 0 would
-        # rest and depart again forever (the block then ended 'diverged')
-        fa = 5e-324
-    if not fa > 0.0:
+    # A departure from rest has d v = 0 at the start and > 0 just after it
+    # (the acceleration points along d): the reversal that the step's end
+    # shows is the return later in the step (a long step at a loose
+    # tolerance swings there and back), not the start; answering 0 would rest
+    # and depart again until the block was declared diverged.  (With fa = 0
+    # the first trial point is the bracket's middle.)
+    if not (fa > 0.0 or (kind == EV_REVERSAL and fa == 0.0)):
         return 0.0
     b = theta_end
     fb = value_end
