@@ -199,7 +199,19 @@ def parse_args(argv=None):
     p.add_argument("--gallery", type=pathlib.Path, default=None,
                    help="also write accuracy_cost.png and a short accuracy_cost.md (picks, throughput "
                         "line, summary) into this folder, e.g. studies/gallery")
+    p.add_argument("--peers", action="store_true",
+                   help="also compare with heyoka and CyRK (optional extra 'bench') at matched error on "
+                        "throughput.py's quadratic bowl (benchmarks/peers_compare.py); skipped, with a line "
+                        "saying so, where they are not installed")
+    p.add_argument("--peers-only", action="store_true", help="run only the peers comparison")
+    p.add_argument("--peers-n", type=int, default=None,
+                   help="starts of the peers comparison (default 20000, --quick 2000)")
+    p.add_argument("--peers-repeat", type=int, default=3, help="interleaved runs per setting, fastest counts")
     args = p.parse_args(argv)
+    if args.peers_only:
+        args.peers = args.no_throughput = True
+    if args.peers_n is None:
+        args.peers_n = 2000 if args.quick else 20_000
     sizes = QUICK if args.quick else FULL
     args.sizes = dict(sizes)
     if args.n is not None:
@@ -212,8 +224,8 @@ def parse_args(argv=None):
     unknown = [k for k in keys if k not in known]
     if unknown or not keys:
         p.error(f"--scenes: unknown {unknown}; choose from {', '.join(known)}")
-    args.scene_specs = [] if args.throughput_only else [known[k] for k in keys]
-    if args.throughput_only and args.no_throughput:
+    args.scene_specs = [] if (args.throughput_only or args.peers_only) else [known[k] for k in keys]
+    if args.throughput_only and args.no_throughput and not args.peers_only:
         p.error("--throughput-only and --no-throughput exclude each other")
     return args
 
@@ -1309,6 +1321,30 @@ def modified_sources() -> list[str] | None:
         return None
 
 
+def peers_wired(rw, res, args) -> bool:
+    """The peers comparison (peers_compare.py): run, print, save its JSON,
+    markdown and figure.  False (with a printed line) where no peer is installed."""
+    import peers
+    import peers_compare
+
+    available = peers.availability()
+    if not (available["heyoka"] or available["cyrk"]):
+        print("peers comparison skipped: neither heyoka nor CyRK is installed "
+              "(pip install -e '.[bench]')", flush=True)
+        return False
+    res["peers"] = peers_res = peers_compare.run(rw, args)
+    md = peers_compare.matched_tables(peers_res)
+    print("\n" + md, flush=True)
+    stem = f"accuracy_cost-{C.timestamp()}-peers" + ("-quick" if args.quick else "")
+    args.out.mkdir(parents=True, exist_ok=True)
+    paths = [C.save_json(args.out / f"{stem}.json", {k: v for k, v in res.items() if k != "scenes"}),
+             C.save_text(args.out / f"{stem}.md", md)]
+    if not args.no_figure:
+        paths.append(peers_compare.draw(peers_res, args.out / f"{stem}.png"))
+    print("\nsaved: " + ", ".join(str(p) for p in paths), flush=True)
+    return True
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     wall_started = time.perf_counter()
@@ -1341,6 +1377,11 @@ def main(argv=None) -> int:
         res["scenes"].append(run_scene(rw, reference, np, spec, settings, args, threads))
     if not args.no_throughput:
         res["throughput"] = throughput_line(rw, reference, np, args)
+    if args.peers:
+        if not peers_wired(rw, res, args):
+            return 0
+        if args.peers_only:
+            return 0
     if not res["scenes"]:  # --throughput-only
         sentence = throughput_sentence(res["throughput"])
         print("\n" + sentence)
