@@ -116,14 +116,19 @@ FIXED_METHODS = ("euler", "semi_implicit_euler", "rk4")
 ADAPTIVE_METHODS = ("dopri5", "dop853")
 RAMPWORK_METHODS = FIXED_METHODS + ADAPTIVE_METHODS
 SCIPY_METHODS = ("RK45", "DOP853")
-ALL_METHODS = RAMPWORK_METHODS + SCIPY_METHODS
+#: peers on the scenes with --peers (benchmarks/peers.py; optional extra 'bench'): heyoka's
+#: Taylor integrator over tol and CyRK's DOP853 over rtol = atol, 2 processes each
+PEER_METHODS = ("heyoka", "CyRK_DOP853")
+ALL_METHODS = RAMPWORK_METHODS + SCIPY_METHODS + PEER_METHODS
 METHOD_LABELS = {"euler": "Euler", "semi_implicit_euler": "semi-implicit Euler", "rk4": "RK4",
-                 "dopri5": "dopri5", "dop853": "dop853", "RK45": "scipy RK45", "DOP853": "scipy DOP853"}
+                 "dopri5": "dopri5", "dop853": "dop853", "RK45": "scipy RK45", "DOP853": "scipy DOP853",
+                 "heyoka": "heyoka", "CyRK_DOP853": "CyRK DOP853"}
 #: figure styles, readable in greyscale: marker, linestyle, colour, marker filled
 STYLES = {"euler": ("o", "-", "C0", True), "semi_implicit_euler": ("s", "--", "C1", True),
           "rk4": ("^", "-.", "C2", True), "dopri5": ("D", ":", "C3", True),
           "dop853": ("X", (0, (7, 2, 1.5, 2, 1.5, 2)), "k", True),
-          "RK45": ("v", "none", "C4", False), "DOP853": ("P", "none", "C5", False)}
+          "RK45": ("v", "none", "C4", False), "DOP853": ("P", "none", "C5", False),
+          "heyoka": ("o", (0, (1, 1)), "C6", False), "CyRK_DOP853": ("s", (0, (3, 1)), "C8", False)}
 
 #: reference: rampwork.reference at these tolerances (atol applies to x, v, W and
 #: the path: well below rtol, so that a small W is resolved relatively too).  The
@@ -253,6 +258,10 @@ def build_settings(sizes) -> list[dict]:
         for rtol in sizes["scipy_rtols"]:
             settings.append({"label": f"scipy {method} rtol={fmt_e(rtol)}", "solver": "scipy",
                              "method": method, "dt": math.nan, "rtol": rtol})
+    for method in PEER_METHODS if sizes.get("peers") else ():
+        for rtol in (r for r in sizes["rtols"] if r >= 1e-12):
+            settings.append({"label": f"{method} {'tol' if method == 'heyoka' else 'rtol'}={fmt_e(rtol)}",
+                             "solver": "peer", "method": method, "dt": math.nan, "rtol": rtol})
     return settings
 
 
@@ -606,6 +615,15 @@ def run_scene(rw, reference, np, spec: SceneSpec, settings, args, threads) -> di
                 r["W_error_estimate_median"] = float(np.nanmedian(rel))
             status_counts_sweep[setting["label"]] = r["status_counts_sweep"]
             del ds
+        elif setting["solver"] == "peer":
+            import peers_compare
+
+            res, wall = peers_compare.scene_peer_run(spec, setting["method"], setting["rtol"], cols,
+                                                     sizes["repeat"])
+            sub = {k: v[:sizes["ref_subset"]] for k, v in res.items() if np.ndim(v)}
+            r.update(run_time_s=wall, threads=None, processes=2, trajectories=n, time_per_1e5_s=wall * 1e5 / n,
+                     steps_mean=float(np.mean(res["steps"])), steps_rejected_mean=math.nan,
+                     outside_domain=int(outside_domain(res["x_end"], spec.domain, np).sum()))
         else:
             scene = make_scene(rw, spec, "rk4", dt=1e-3)
             res = scipy_run(reference, scene, scipy_cols, setting["method"], setting["rtol"], np)
@@ -1222,8 +1240,11 @@ def draw_figure(res, path):
     handles = []
     for fam in families:
         marker, ls, color, filled = STYLES[fam]
+        if not any(family_of(r) == fam for s in scenes for r in s["results"]):
+            continue
         label = METHOD_LABELS[fam] + (" (over dt)" if fam in FIXED_METHODS else
                                       " (over rtol = atol)" if fam in ADAPTIVE_METHODS else
+                                      ", 2 processes (over tol)" if fam in PEER_METHODS else
                                       ", 1 process (rtol = atol)")
         handles.append(Line2D([], [], color=color, marker=marker, linestyle=ls if ls != "none" else "",
                               markerfacecolor=color if filled else "white", markeredgewidth=1.3,
@@ -1362,6 +1383,14 @@ def main(argv=None) -> int:
     if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         print(f"--threads must be in 1..{numba.config.NUMBA_NUM_THREADS}", file=sys.stderr)
         return 2
+    if args.peers and args.scene_specs:
+        import peers
+
+        available = peers.availability()
+        args.sizes["peers"] = bool(available["heyoka"] and available["cyrk"])
+        if not args.sizes["peers"]:
+            print("peers on the scenes skipped: heyoka and CyRK are both needed "
+                  f"({'; '.join(available['why'].values())})", flush=True)
     settings = build_settings(args.sizes)
     res = {"benchmark": "accuracy_cost", "started_utc": C.utc_now(), "machine": C.machine_info(),
            "src_modified_in_working_tree": modified_sources(),

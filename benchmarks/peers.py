@@ -210,7 +210,10 @@ def heyoka_chunk(task):
     new_time = {}  # lanes refilled (time 0) or parked (t_max) since the last call
     lane_of = [-1] * batch  # trajectory in each lane (-1: parked at t_max)
     direction = np.zeros(batch)
-    success, time_limit = int(hy.taylor_outcome.success), int(hy.taylor_outcome.time_limit)
+    success, time_limit = hy.taylor_outcome.success, int(hy.taylor_outcome.time_limit)
+    lanes = range(batch)
+    steps_total = 0
+    propagate_s = 0.0  # time inside heyoka's propagate_until (the rest is this Python driver)
     following = [0]
 
     def finish(lane, j, status, t, x, v, w):
@@ -248,16 +251,19 @@ def heyoka_chunk(task):
             new_time.clear()
         if all(j < 0 for j in lane_of):
             break
+        started = time.perf_counter()
         ta.propagate_until(t_max)
+        propagate_s += time.perf_counter() - started
+        res = ta.propagate_res
+        steps_total += sum(r[3] for r in res)
+        # the driver is Python: touch only the lanes whose trajectory ended or stopped
+        ended = [lane for lane in lanes if res[lane][0] != success and lane_of[lane] >= 0]
+        if not ended:
+            continue
         now = ta.time
-        for lane, (outcome, _, _, nsteps) in enumerate(ta.propagate_res):
+        for lane in ended:
             j = lane_of[lane]
-            if j < 0:
-                continue
-            out["steps"][j] += nsteps
-            code = int(outcome)
-            if code == success:
-                continue
+            code = int(res[lane][0])
             x, v, w = state[:, lane]
             t = now[lane]
             if not (math.isfinite(x) and math.isfinite(v) and math.isfinite(w)) or code not in (
@@ -278,7 +284,10 @@ def heyoka_chunk(task):
                 direction[lane] = d
                 state[1, lane] = 0.0
                 pars[:, lane] = (d * mu_k[j], d)
-    out["compile_s"] = compile_s
+    # steps are counted per call over all lanes (a lane's own count would cost a
+    # Python loop over every lane at every call): the mean per trajectory
+    out["steps"][:] = round(steps_total / max(n, 1))
+    out["compile_s"], out["propagate_s"] = compile_s, propagate_s
     return out
 
 
@@ -357,3 +366,64 @@ def cyrk_chunk(task):
 def _sign_q(d, mu_k):
     """q = d mu_k, carrying d's sign also where mu_k = 0 (the reversal event reads it)."""
     return math.copysign(float(mu_k), d)
+
+
+# ------------------------------------------------------------------------------
+# CyRK, compiled: _cyrk_ramp.pyx (needs Cython and a C++ compiler at first use)
+# ------------------------------------------------------------------------------
+BUILD_DIR = __import__("pathlib").Path(__file__).resolve().parent / ".build"
+
+
+def build_cyrk():
+    """Import the compiled CyRK adapter, building it into benchmarks/.build on
+    first use; (module, None) or (None, why)."""
+    import importlib
+    import pathlib
+    import sys
+
+    here = pathlib.Path(__file__).resolve().parent
+    if str(BUILD_DIR) not in sys.path:
+        sys.path.insert(0, str(BUILD_DIR))
+    try:
+        return importlib.import_module("_cyrk_ramp"), None
+    except ImportError:
+        pass
+    try:
+        import contextlib
+        import io
+
+        import CyRK
+        from Cython.Build import cythonize
+        from setuptools import Extension
+        from setuptools.dist import Distribution
+
+        BUILD_DIR.mkdir(exist_ok=True)
+        ext = Extension("_cyrk_ramp", [str(here / "_cyrk_ramp.pyx")],
+                        include_dirs=[np.get_include(), *CyRK.get_include()], language="c++",
+                        extra_compile_args=["-std=c++20", "-O3", "-w"])
+        dist = Distribution({"ext_modules": cythonize([ext], quiet=True, build_dir=str(BUILD_DIR / "c"))})
+        cmd = dist.get_command_obj("build_ext")
+        cmd.build_lib, cmd.build_temp = str(BUILD_DIR), str(BUILD_DIR / "tmp")
+        with contextlib.redirect_stdout(io.StringIO()):
+            dist.run_command("build_ext")
+        importlib.invalidate_caches()
+        return importlib.import_module("_cyrk_ramp"), None
+    except Exception as error:  # noqa: BLE001 - no compiler, no Cython...: fall back, say why
+        return None, f"compiled CyRK adapter not built ({type(error).__name__}: {error})"
+
+
+def cyrk_compiled_chunk(task):
+    """cyrk_chunk with the compiled adapter (the right-hand side and events in C)."""
+    key, method, tol, x0, v0, mu_k, mu_s = task
+    module, why = build_cyrk()
+    if module is None:
+        raise RuntimeError(why)
+    p = _params(key)
+    family = key[0]
+    params = {"straight": (p.get("slope", 0.0), 0.0, 0.0, 0.0),
+              "quadratic": (p.get("curvature", 0.0), p.get("slope", 0.0), 0.0, 0.0),
+              "sine": (p.get("mean_slope", 0.0), p.get("amplitude", 0.0), p.get("wavenumber", 0.0),
+                       p.get("phase", 0.0))}.get(family, (p.get("radius", 1.0), p.get("x_centre", 0.0), 0.0, 0.0))
+    lo, hi = key[2]
+    return module.solve(family, params, key[3], lo, hi, key[4], may_lift_off(key), method, tol,
+                        x0, v0, mu_k, mu_s)
