@@ -33,6 +33,14 @@ around the scene's case, the benchmark runs in one process
   steps per trajectory and its error on a reference subset, and whether the
   target of 10^6 trajectories/s is met (by either pair).
 
+* with ``--peers`` (optional extra ``bench``: heyoka and CyRK; skipped with a
+  printed line where they are missing): heyoka and CyRK DOP853 on the four
+  scenes (2 processes each; their curves join the figure), and
+  ``peers_compare.py`` on 20,000 starts of the quadratic-bowl grid: rampwork's
+  dopri5 / dop853 against heyoka and CyRK at matched median and max error, by
+  kernel time and end to end (``rw.simulate``'s wall time), with every
+  system's wrong outcomes counted.
+
 It prints a table as it goes and a summary at the end (what accuracy costs,
 and the fastest method for each accuracy target from 1e-3 to 1e-12), and
 saves JSON (with the machine), markdown, PNG and netCDF (dims scene x

@@ -171,20 +171,43 @@ def settings(available) -> list[dict]:
     return rows
 
 
-def reference(workers, cols, np_):
-    """The reference at REF and REF_CHECK tolerances; (ref, valid mask, info)."""
+def _reference_source() -> bytes:
+    """rampwork.reference's source: a cached reference is stale once it changes."""
+    from rampwork import reference as module
+
+    return open(module.__file__, "rb").read()
+
+
+def reference(workers, cols, np_, cache_dir=None):
+    """The reference at REF and REF_CHECK tolerances; (ref, valid mask, info).
+    Kept in ``cache_dir`` (keyed by the starts' hash): it takes minutes."""
+    import hashlib
+
     n = cols["x0"].size
     parts = 8 * len(workers.pools)
     started = time.perf_counter()
-    ref = _merge(workers.map(reference_chunk, [(c, A.REF_RTOL, A.REF_ATOL) for c in _split(cols, parts)]), n)
-    check = _merge(workers.map(reference_chunk, [(c, A.REF_CHECK_RTOL, A.REF_CHECK_ATOL)
-                                                 for c in _split(cols, parts)]), n)
+    digest = hashlib.sha1(b"".join(np.ascontiguousarray(cols[k]).tobytes() for k in ("x0", "v0", "mu"))
+                          + repr((A.REF_RTOL, A.REF_ATOL, A.REF_CHECK_RTOL, A.REF_CHECK_ATOL)).encode()
+                          + _reference_source()).hexdigest()
+    cache = None if cache_dir is None else cache_dir / f"peers-reference-{n}-{digest[:12]}.npz"
+    if cache is not None and cache.exists():
+        saved = np.load(cache)
+        ref = {k[4:]: saved[k] for k in saved.files if k.startswith("ref_")}
+        check = {k[6:]: saved[k] for k in saved.files if k.startswith("check_")}
+    else:
+        ref = _merge(workers.map(reference_chunk, [(c, A.REF_RTOL, A.REF_ATOL) for c in _split(cols, parts)]), n)
+        check = _merge(workers.map(reference_chunk, [(c, A.REF_CHECK_RTOL, A.REF_CHECK_ATOL)
+                                                     for c in _split(cols, parts)]), n)
+        if cache is not None:
+            cache.parent.mkdir(parents=True, exist_ok=True)
+            np.savez(cache, **{f"ref_{k}": v for k, v in ref.items()}, **{f"check_{k}": v for k, v in check.items()})
     usable = A.reference_validity(ref, T.DOMAIN, np_)
     dw = np.abs(check["W_friction"] - ref["W_friction"]) / np.maximum(np.abs(ref["W_friction"]), A.W_FLOOR)
     dx = np.where(np.isin(ref["status"], A.X_INFORMATIVE), np.abs(check["x_end"] - ref["x_end"]), 0.0)
     converged = (check["status"] == ref["status"]) & (dw <= A.UNCONVERGED) & (dx <= A.UNCONVERGED)
     valid = usable & converged
-    info = {"seconds": time.perf_counter() - started, "invalid": int((~usable).sum()),
+    info = {"seconds": time.perf_counter() - started, "cached": str(cache) if cache is not None else None,
+            "invalid": int((~usable).sum()),
             "unconverged": int((usable & ~converged).sum()),
             "check_W_diff_max": float(dw[valid].max()), "check_W_diff_median": float(np.median(dw[valid])),
             "status_counts": {A.STATUS_NAMES[s]: int((ref["status"] == s).sum()) for s in A.STATUS_NAMES
@@ -237,7 +260,7 @@ def run(rw, args) -> dict:
         print(f"\n=== peers on throughput.py's quadratic bowl: {n:,} starts of its 10^6 grid; rampwork "
               f"{THREADS} threads, peers {peers.WORKERS} processes; errors against the reference on every start",
               flush=True)
-        ref, valid, ref_info = reference(workers, cols, np)
+        ref, valid, ref_info = reference(workers, cols, np, args.out)
         print(f"reference: {ref_info['seconds']:.0f} s; status {ref_info['status_counts']}; invalid "
               f"{ref_info['invalid']}, not converged (left out) {ref_info['unconverged']}; check W diff max "
               f"{ref_info['check_W_diff_max']:.1e}", flush=True)
@@ -266,8 +289,11 @@ def run(rw, args) -> dict:
             r["wall_s"] = min(r["wall_times_s"])
             r["kernel_s"] = min(r["kernel_times_s"]) if r["system"] in A.ADAPTIVE_METHODS else r["wall_s"]
             errs = A.errors_against(out, ref, valid, np)
-            errs.pop("mismatch_index")
+            index = errs.pop("mismatch_index")
             r.update(errs)
+            r["mismatch_starts"] = [{"index": int(j), "x0": float(cols["x0"][j]), "v0": float(cols["v0"][j]),
+                                     "mu": float(cols["mu"][j]), "status": int(out["status"][j]),
+                                     "reference_status": int(ref["status"][j])} for j in index[:20]]
             r["outside_domain"] = int(A.outside_domain(out["x_end"], T.DOMAIN, np).sum())
             r["wrong_outcomes"] = r["status_mismatch"] + r["outside_domain"]
             r["steps_mean"] = float(np.mean(out["steps"]))
