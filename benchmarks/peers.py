@@ -25,9 +25,11 @@ are spared it).
 * **CyRK** (``pysolve_ivp``, its C++ DOP853 / RK45): events as in scipy, located
   (Brent on the dense output) only where an event function changes sign between
   two step ends, so an event whose function comes back within one step is
-  missed; such wrong outcomes are counted, not hidden.  The right-hand side is a
-  Python function (CyRK's Cython/C++ route needs a compiled diffeq: not done
-  here); 2 worker processes.
+  missed; such wrong outcomes are counted, not hidden.  The right-hand side and
+  the events in C (``_cyrk_ramp.pyx``, built with Cython on first use:
+  :func:`cyrk_compiled_chunk`), or, where that does not build, Python functions
+  through ``pysolve_ivp`` (:func:`cyrk_chunk`, same steps, about 50x slower);
+  2 worker processes.
 
 The ramps: straight, quadratic, circular bowl and dome, sine (closed forms, as
 in rampwork.reference).  Needs the optional ``bench`` extra; import errors are
@@ -37,7 +39,6 @@ reported by :func:`availability`, never raised at import.
 from __future__ import annotations
 
 import math
-import multiprocessing
 import time
 
 import numpy as np

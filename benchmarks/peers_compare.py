@@ -365,6 +365,7 @@ def matched_tables(res) -> str:
 
 STYLE = {"dopri5": ("D", "C3", "rampwork dopri5"), "dop853": ("X", "k", "rampwork dop853"),
          "heyoka": ("o", "C0", "heyoka (batch, 2 processes)"),
+         "heyoka_propagate": ("o", "C9", "heyoka, time inside propagate_until only"),
          "cyrk_DOP853": ("s", "C1", "CyRK DOP853 (2 processes)"),
          "cyrk_RK45": ("^", "C2", "CyRK RK45 (2 processes)")}
 
@@ -386,7 +387,8 @@ def draw(res, path):
                 if key == "kernel_s" and system not in A.ADAPTIVE_METHODS:
                     continue
                 t = np.array([r[key] for r in rs]) * 1e5 / res["n"]
-                ax.plot(t, err, marker=marker, color=color, linestyle=ls, label=label + suffix,
+                ax.plot(t, err, marker=marker, color=color, linestyle="--" if system == "heyoka_propagate" else ls,
+                        label=label + suffix,
                         markerfacecolor=color if key == "wall_s" else "white")
                 bad = np.array([r["wrong_outcomes"] > 0 for r in rs])
                 if bad.any():
