@@ -33,6 +33,14 @@ around the scene's case, the benchmark runs in one process
   steps per trajectory and its error on a reference subset, and whether the
   target of 10^6 trajectories/s is met (by either pair).
 
+* with ``--peers`` (optional extra ``bench``: heyoka and CyRK; skipped with a
+  printed line where they are missing): heyoka and CyRK DOP853 on the four
+  scenes (2 processes each; their curves join the figure), and
+  ``peers_compare.py`` on 20,000 starts of the quadratic-bowl grid: rampwork's
+  dopri5 / dop853 against heyoka and CyRK at matched median and max error, by
+  kernel time and end to end (``rw.simulate``'s wall time), with every
+  system's wrong outcomes counted.
+
 It prints a table as it goes and a summary at the end (what accuracy costs,
 and the fastest method for each accuracy target from 1e-3 to 1e-12), and
 saves JSON (with the machine), markdown, PNG and netCDF (dims scene x
@@ -116,14 +124,19 @@ FIXED_METHODS = ("euler", "semi_implicit_euler", "rk4")
 ADAPTIVE_METHODS = ("dopri5", "dop853")
 RAMPWORK_METHODS = FIXED_METHODS + ADAPTIVE_METHODS
 SCIPY_METHODS = ("RK45", "DOP853")
-ALL_METHODS = RAMPWORK_METHODS + SCIPY_METHODS
+#: peers on the scenes with --peers (benchmarks/peers.py; optional extra 'bench'): heyoka's
+#: Taylor integrator over tol and CyRK's DOP853 over rtol = atol, 2 processes each
+PEER_METHODS = ("heyoka", "CyRK_DOP853")
+ALL_METHODS = RAMPWORK_METHODS + SCIPY_METHODS + PEER_METHODS
 METHOD_LABELS = {"euler": "Euler", "semi_implicit_euler": "semi-implicit Euler", "rk4": "RK4",
-                 "dopri5": "dopri5", "dop853": "dop853", "RK45": "scipy RK45", "DOP853": "scipy DOP853"}
+                 "dopri5": "dopri5", "dop853": "dop853", "RK45": "scipy RK45", "DOP853": "scipy DOP853",
+                 "heyoka": "heyoka", "CyRK_DOP853": "CyRK DOP853"}
 #: figure styles, readable in greyscale: marker, linestyle, colour, marker filled
 STYLES = {"euler": ("o", "-", "C0", True), "semi_implicit_euler": ("s", "--", "C1", True),
           "rk4": ("^", "-.", "C2", True), "dopri5": ("D", ":", "C3", True),
           "dop853": ("X", (0, (7, 2, 1.5, 2, 1.5, 2)), "k", True),
-          "RK45": ("v", "none", "C4", False), "DOP853": ("P", "none", "C5", False)}
+          "RK45": ("v", "none", "C4", False), "DOP853": ("P", "none", "C5", False),
+          "heyoka": ("o", (0, (1, 1)), "C6", False), "CyRK_DOP853": ("s", (0, (3, 1)), "C8", False)}
 
 #: reference: rampwork.reference at these tolerances (atol applies to x, v, W and
 #: the path: well below rtol, so that a small W is resolved relatively too).  The
@@ -199,7 +212,19 @@ def parse_args(argv=None):
     p.add_argument("--gallery", type=pathlib.Path, default=None,
                    help="also write accuracy_cost.png and a short accuracy_cost.md (picks, throughput "
                         "line, summary) into this folder, e.g. studies/gallery")
+    p.add_argument("--peers", action="store_true",
+                   help="also compare with heyoka and CyRK (optional extra 'bench') at matched error on "
+                        "throughput.py's quadratic bowl (benchmarks/peers_compare.py); skipped, with a line "
+                        "saying so, where they are not installed")
+    p.add_argument("--peers-only", action="store_true", help="run only the peers comparison")
+    p.add_argument("--peers-n", type=int, default=None,
+                   help="starts of the peers comparison (default 20000, --quick 2000)")
+    p.add_argument("--peers-repeat", type=int, default=3, help="interleaved runs per setting, fastest counts")
     args = p.parse_args(argv)
+    if args.peers_only:
+        args.peers = args.no_throughput = True
+    if args.peers_n is None:
+        args.peers_n = 2000 if args.quick else 20_000
     sizes = QUICK if args.quick else FULL
     args.sizes = dict(sizes)
     if args.n is not None:
@@ -212,8 +237,8 @@ def parse_args(argv=None):
     unknown = [k for k in keys if k not in known]
     if unknown or not keys:
         p.error(f"--scenes: unknown {unknown}; choose from {', '.join(known)}")
-    args.scene_specs = [] if args.throughput_only else [known[k] for k in keys]
-    if args.throughput_only and args.no_throughput:
+    args.scene_specs = [] if (args.throughput_only or args.peers_only) else [known[k] for k in keys]
+    if args.throughput_only and args.no_throughput and not args.peers_only:
         p.error("--throughput-only and --no-throughput exclude each other")
     return args
 
@@ -241,6 +266,10 @@ def build_settings(sizes) -> list[dict]:
         for rtol in sizes["scipy_rtols"]:
             settings.append({"label": f"scipy {method} rtol={fmt_e(rtol)}", "solver": "scipy",
                              "method": method, "dt": math.nan, "rtol": rtol})
+    for method in PEER_METHODS if sizes.get("peers") else ():
+        for rtol in (r for r in sizes["rtols"] if r >= 1e-12):
+            settings.append({"label": f"{method} {'tol' if method == 'heyoka' else 'rtol'}={fmt_e(rtol)}",
+                             "solver": "peer", "method": method, "dt": math.nan, "rtol": rtol})
     return settings
 
 
@@ -594,6 +623,15 @@ def run_scene(rw, reference, np, spec: SceneSpec, settings, args, threads) -> di
                 r["W_error_estimate_median"] = float(np.nanmedian(rel))
             status_counts_sweep[setting["label"]] = r["status_counts_sweep"]
             del ds
+        elif setting["solver"] == "peer":
+            import peers_compare
+
+            res, wall = peers_compare.scene_peer_run(spec, setting["method"], setting["rtol"], cols,
+                                                     sizes["repeat"])
+            sub = {k: v[:sizes["ref_subset"]] for k, v in res.items() if np.ndim(v)}
+            r.update(run_time_s=wall, threads=None, processes=2, trajectories=n, time_per_1e5_s=wall * 1e5 / n,
+                     steps_mean=float(np.mean(res["steps"])), steps_rejected_mean=math.nan,
+                     outside_domain=int(outside_domain(res["x_end"], spec.domain, np).sum()))
         else:
             scene = make_scene(rw, spec, "rk4", dt=1e-3)
             res = scipy_run(reference, scene, scipy_cols, setting["method"], setting["rtol"], np)
@@ -1210,8 +1248,11 @@ def draw_figure(res, path):
     handles = []
     for fam in families:
         marker, ls, color, filled = STYLES[fam]
+        if not any(family_of(r) == fam for s in scenes for r in s["results"]):
+            continue
         label = METHOD_LABELS[fam] + (" (over dt)" if fam in FIXED_METHODS else
                                       " (over rtol = atol)" if fam in ADAPTIVE_METHODS else
+                                      ", 2 processes (over tol)" if fam in PEER_METHODS else
                                       ", 1 process (rtol = atol)")
         handles.append(Line2D([], [], color=color, marker=marker, linestyle=ls if ls != "none" else "",
                               markerfacecolor=color if filled else "white", markeredgewidth=1.3,
@@ -1309,6 +1350,30 @@ def modified_sources() -> list[str] | None:
         return None
 
 
+def peers_wired(rw, res, args) -> bool:
+    """The peers comparison (peers_compare.py): run, print, save its JSON,
+    markdown and figure.  False (with a printed line) where no peer is installed."""
+    import peers
+    import peers_compare
+
+    available = peers.availability()
+    if not (available["heyoka"] or available["cyrk"]):
+        print("peers comparison skipped: neither heyoka nor CyRK is installed "
+              "(pip install -e '.[bench]')", flush=True)
+        return False
+    res["peers"] = peers_res = peers_compare.run(rw, args)
+    md = peers_compare.matched_tables(peers_res)
+    print("\n" + md, flush=True)
+    stem = f"accuracy_cost-{C.timestamp()}-peers" + ("-quick" if args.quick else "")
+    args.out.mkdir(parents=True, exist_ok=True)
+    paths = [C.save_json(args.out / f"{stem}.json", {k: v for k, v in res.items() if k != "scenes"}),
+             C.save_text(args.out / f"{stem}.md", md)]
+    if not args.no_figure:
+        paths.append(peers_compare.draw(peers_res, args.out / f"{stem}.png"))
+    print("\nsaved: " + ", ".join(str(p) for p in paths), flush=True)
+    return True
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     wall_started = time.perf_counter()
@@ -1326,6 +1391,14 @@ def main(argv=None) -> int:
     if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         print(f"--threads must be in 1..{numba.config.NUMBA_NUM_THREADS}", file=sys.stderr)
         return 2
+    if args.peers and args.scene_specs:
+        import peers
+
+        available = peers.availability()
+        args.sizes["peers"] = bool(available["heyoka"] and available["cyrk"])
+        if not args.sizes["peers"]:
+            print("peers on the scenes skipped: heyoka and CyRK are both needed "
+                  f"({'; '.join(available['why'].values())})", flush=True)
     settings = build_settings(args.sizes)
     res = {"benchmark": "accuracy_cost", "started_utc": C.utc_now(), "machine": C.machine_info(),
            "src_modified_in_working_tree": modified_sources(),
@@ -1341,6 +1414,11 @@ def main(argv=None) -> int:
         res["scenes"].append(run_scene(rw, reference, np, spec, settings, args, threads))
     if not args.no_throughput:
         res["throughput"] = throughput_line(rw, reference, np, args)
+    if args.peers:
+        if not peers_wired(rw, res, args):
+            return 0
+        if args.peers_only:
+            return 0
     if not res["scenes"]:  # --throughput-only
         sentence = throughput_sentence(res["throughput"])
         print("\n" + sentence)

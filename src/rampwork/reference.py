@@ -47,7 +47,11 @@ event that ends the segment:
 
 Events are located by scipy (Brent's method on the method's dense output), so
 their accuracy follows ``rtol``/``atol``.  Simultaneous events are resolved in
-the order exit, contact, reversal.
+the order exit, contact, reversal.  scipy finds an event only where its
+function changes sign between two step ends, so an exit inside a step that goes
+past a domain end and back (a reversal just beyond the end) would be missed:
+x being monotone within a segment, a segment that ends beyond an end is
+recognised as such an exit, located on the dense output.
 
 Main entry points:
 
@@ -356,7 +360,7 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
             with np.errstate(all="ignore"):
                 start = [x, v, work, path] + ([drag_work] if with_drag else [])
                 sol = solve_ivp(rhs, (t, t_max), start, method=method, rtol=rtol,
-                                atol=atol, events=handlers)
+                                atol=atol, events=handlers, dense_output=True)
         except (ValueError, ZeroDivisionError, OverflowError, FloatingPointError) as error:
             note("diverged", t, x, v, message=str(error))
             return finish(DIVERGED, t, x, v)
@@ -368,18 +372,33 @@ def reference_trajectory(scene: Scene, x0: float | None = None, v0: float | None
                                v=float(sol.y[1, -1]), message=sol.message))
             return finish(DIVERGED, float(sol.t[-1]), float(sol.y[0, -1]), float(sol.y[1, -1]))
 
+        t_start = t
         if sol.status == 0:  # reached t_max
-            t, (x, v, work, path, drag_work) = t_max, _unpack(sol.y[:, -1])
+            kind, t_event = None, t_max
+            end = sol.y[:, -1]
+        else:  # a terminal event: the earliest (ties: exit, contact, reversal)
+            kind, t_event = None, math.inf
+            for k in range(4):
+                if len(sol.t_events[k]) and sol.t_events[k][0] < t_event:
+                    kind, t_event = k, float(sol.t_events[k][0])
+            end = sol.y_events[kind][0]
+        x, v, work, path, drag_work = _unpack(end)
+        t = t_event
+        if kind not in (_EV_EXIT_LO, _EV_EXIT_HI) and not lo <= x <= hi:
+            # x is monotone within a segment (v keeps the sign d), so a segment
+            # that ends beyond a domain end crossed it first, inside a step that
+            # went past the end and (at a reversal) back: solve_ivp tests an
+            # event's sign only at step ends and cannot see that exit.  Locate
+            # it on the dense output.
+            bound = lo if x < lo else hi
+            t = brentq(lambda tt: float(sol.sol(tt)[0]) - bound, t_start, t_event,
+                       xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=500)
+            _, v, work, path, drag_work = _unpack(sol.sol(t))
+            note("exit", t, bound, v, missed_by_sign_test=True)
+            return finish(EXITED, t, bound, v)
+        if kind is None:
             note("timeout", t, x, v)
             return finish(TIMEOUT, t, x, v)
-
-        # a terminal event: the earliest (ties: exit, contact, reversal)
-        kind, t_event = None, math.inf
-        for k in range(4):
-            if len(sol.t_events[k]) and sol.t_events[k][0] < t_event:
-                kind, t_event = k, float(sol.t_events[k][0])
-        x, v, work, path, drag_work = _unpack(sol.y_events[kind][0])
-        t = t_event
 
         if kind in (_EV_EXIT_LO, _EV_EXIT_HI):
             x = lo if kind == _EV_EXIT_LO else hi
