@@ -69,8 +69,8 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
  resolve_linear, take_event, step_and_check, start_block, replay_lane,
- attempt_once, lane_parameters, uniform_parameters,
- runtime_flags) = (None,) * 34
+ attempt_once, lane_parameters, uniform_parameters, locate_earliest,
+ runtime_flags) = (None,) * 35
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -642,6 +642,21 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     if LINEAR_EVENTS and bounded and contact > 0.0:  # the whole step is usable
         return resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outputs, shared)
     if not bounded:
+        # Most often an event came first: a step that stops early, whose later
+        # stages run on past the stop with the mode's signs, ends with
+        # friction work < 0.  The earliest event that shows at the step's
+        # end, located on [0, h], is a usable end if the state is bounded
+        # there; only otherwise is the bound itself bisected (to rounding:
+        # about 50 trial steps).
+        h_end = locate_earliest(lanes, i, h, exit_lo, exit_hi, contact, reversal, settings,
+                                shared)
+        if h_end > 0.0:
+            bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h_end, settings,
+                                                                        shared)
+            if not (bounded and min(exit_lo, exit_hi, contact, reversal) <= 0.0):
+                h_end = h  # no usable end found this way: bisect the bound
+                bounded = False
+    if not bounded:
         diverged = np.int64(EV_DIVERGED)  # one argument type for every call: one compilation
         h_end = locate_event(diverged, lanes, i, h, -1.0, settings, shared)
         h_end = h_end * (1.0 - 1e-12)  # the first bad size; step back to a good one
@@ -693,6 +708,21 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
             finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
             return False
     return take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared)
+
+
+def _locate_earliest(lanes, i, h, exit_lo, exit_hi, contact, reversal, settings, shared):
+    """The smallest step size in (0, h] at which one of the event functions
+    whose values after a step h are given (<= 0: it happened) has happened;
+    0 if none did."""
+    values = (exit_lo, exit_hi, contact, reversal)  # the order of EV_EXIT_LO .. EV_REVERSAL
+    earliest = 0.0
+    for k in range(4):
+        value = values[k]
+        if value <= 0.0:
+            h_k = locate_event(np.int64(EV_EXIT_LO + k), lanes, i, h, value, settings, shared)
+            if h_k > 0.0 and (earliest == 0.0 or h_k < earliest):
+                earliest = h_k
+    return earliest
 
 
 def _take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared):
@@ -1112,7 +1142,8 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         method_parts = (
             ("start_value", _start_value), ("trial_step", _trial_step),
             ("event_values", _event_values), ("event_value", _event_value),
-            ("locate_event", _locate_event), ("apply_step", _apply_step),
+            ("locate_event", _locate_event), ("locate_earliest", _locate_earliest),
+            ("apply_step", _apply_step),
             ("start_adaptive", _no_adaptive_start),
             ("step_and_check", _step_and_check), ("fixed_step_lane", _fixed_step_lane),
             ("start_block", _start_block), ("replay_lane", _replay_lane),
