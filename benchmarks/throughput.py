@@ -553,7 +553,8 @@ def build_tables(res) -> tuple[str, str]:
 
     thr_head = ["method", "compile s (source)", "run s", "traj-steps/s", "traj/s",
                 "1 thr steps/s", "2 thr steps/s", "2/1 speedup", "identical-traj steps/s (2/1)",
-                "div ceiling", "of ceiling", "target", "met"]
+                "div ceiling", "of ceiling", "identical of ceiling", "grid/identical", "target",
+                "met"]
     thr_rows = []
     peer_head = ["method", "rampwork steps/s", "numpy steps/s", "rampwork/numpy",
                  "rampwork traj/s", "scipy traj/s", "rampwork/scipy", "scipy equiv steps/s"]
@@ -577,6 +578,9 @@ def build_tables(res) -> tuple[str, str]:
             f"{main['run_time_s']:.3f}", f(main["steps_per_s"]), f(main["trajectories_per_s"]),
             f(s1), f(s2), r(s2 / s1) if s1 and s2 else "-", uniform_cell,
             f(m["ceiling_steps_per_s"]), f"{100 * m['fraction_of_ceiling']:.0f}%",
+            f"{100 * m['uniform_fraction_of_ceiling']:.0f}%" if "uniform_fraction_of_ceiling" in m
+            else "-",
+            f"{m['grid_over_uniform']:.2f}" if "grid_over_uniform" in m else "-",
             f(target) if target else "-",
             ("YES" if m["target_met"] else "NO") if target else "-"])
         numpy_ = m.get("numpy")
@@ -639,7 +643,8 @@ def build_tables(res) -> tuple[str, str]:
         "identical-traj: the same start repeated (every lane busy, no tail of long trajectories), "
         f"{res['config'].get('uniform', 0):,} trajectories of about "
         f"{res['config'].get('uniform_steps', 0):.0f} steps: the kernel's per-step speed without "
-        "load imbalance.",
+        "load imbalance and with few events (about 8 per trajectory); grid/identical: the grid's "
+        "rate over it, the share of the speed that the grid's events and tail leave.",
         "numpy: plain numpy-vectorised fixed-step integrator, same method and dt, "
         f"{res.get('numpy_subset', 0):,} trajectories, events snapped to step ends.",
         f"scipy: solve_ivp {SCIPY_METHOD} rtol {SCIPY_RTOL:g} atol {SCIPY_ATOL:g} per trajectory with "
@@ -887,6 +892,10 @@ def main(argv=None) -> int:
         m["ceiling_steps_per_s"] = (res["division_ceiling"]["divisions_per_s"]
                                     / DIVISIONS_PER_STEP[method])
         m["fraction_of_ceiling"] = m["main"]["steps_per_s"] / m["ceiling_steps_per_s"]
+        busy = (m.get("uniform") or {}).get(str(threads))
+        if busy:  # every lane busy (few events): what the events cost, as a ratio in one run
+            m["uniform_fraction_of_ceiling"] = busy["steps_per_s"] / m["ceiling_steps_per_s"]
+            m["grid_over_uniform"] = m["main"]["steps_per_s"] / busy["steps_per_s"]
     res["total_wall_s"] = time.perf_counter() - wall_started
     try:
         res["machine"]["threading_layer_used"] = numba.threading_layer()

@@ -41,3 +41,13 @@ def test_overhead_benchmark_reports_every_stage(tmp_path):
         assert point["stages_s"]["kernel"] > 0 and point["stages_s"]["attributes"] > 0
         assert point["stored_scene_bytes"] < 1500  # 400 cases by reference, not listed
     assert set(saved["fits"]) == {"euler", "dopri5"}
+
+
+def test_events_benchmark_reports_the_ceiling_fractions(tmp_path):
+    done = _run("events.py", "--n", "300", "--methods", "euler", "--repeat", "1", out=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    saved = json.loads(next(tmp_path.glob("events-*.json")).read_text())
+    euler = saved["best"]["this tree"]["methods"]["euler"]
+    assert euler["grid_steps_per_s"] > 0 and euler["identical_steps_per_s"] > 0
+    assert euler["grid_of_ceiling"] == euler["grid_steps_per_s"] / saved["best"]["this tree"][
+        "division_ceiling_per_s"]

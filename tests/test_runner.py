@@ -76,9 +76,10 @@ def test_every_output_carries_its_schema_attributes(integrator):
 def test_bitwise_identical_whatever_the_block_and_tile_size():
     """A trajectory's arithmetic must not depend on its lane, its tile, the
     number of lanes per block, how a tile's tail is compacted, or how often
-    the scan replays flagged lanes from their checkpoints (6 steps a block,
-    two per lane visit, and t_max = 15 s ends some trajectories inside a
-    block: their replay stops at the step limit)."""
+    the scan resolves the lanes that stopped at an event (6 steps a block,
+    two per lane visit: three visits, an odd count of x and v's bank swaps;
+    and t_max = 15 s ends some trajectories inside a block: they stop at
+    the step limit)."""
     from rampwork import runner
     from rampwork.core import kernel as K
     from rampwork.core.variant import KernelVariant

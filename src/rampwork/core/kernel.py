@@ -4,14 +4,14 @@ Why lanes: a loop that carries one trajectory at a time is bound by the latency
 of its divisions.  Here a tile of trajectories is run through a block of
 ``LANES`` lanes stored as structure of arrays; the inner loop does one step for
 every lane with no data-dependent branch, so LLVM turns it into vector code.
-Every lane steps on regardless of events: a step whose event conditions fire
-(reversal or stop, lift-off, contact switch, exit, divergence) only raises
-the lane's FLAG.  Every ``SUBSTEPS`` steps a scalar pass books the steps of
-the clean lanes, replays each flagged lane (and one that would pass its
-``t_max`` step limit) from the block's checkpoint up to the step that raised
-the event, resolves that event exactly (located inside the step by root
-finding on the step size, to rounding) and refills finished lanes with the
-next trajectory of the tile.  Once a tile has nothing left to load, running
+Every lane steps every time, but a step whose event conditions fire
+(reversal or stop, lift-off, contact switch, exit, divergence), or one past
+the lane's ``t_max`` step limit, is not committed: the lane keeps the state
+at that step's start until the block ends, and records the step's index in
+its STOP.  Every ``SUBSTEPS`` steps a scalar pass books the steps of the
+lanes, resolves the event of each lane that stopped exactly (located inside
+the step by root finding on the step size, to rounding) and refills finished
+lanes with the next trajectory of the tile.  Once a tile has nothing left to load, running
 lanes are compacted to the front so that its tail does not step empty lanes.
 
 Every trajectory sees the same sequence of floating-point operations whatever
@@ -68,8 +68,8 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
- resolve_linear, take_event, step_and_check, checkpoint_lanes, replay_lane,
- copy_stepped_state, attempt_once, lane_parameters, uniform_parameters,
+ resolve_linear, take_event, step_and_check, start_block, replay_lane,
+ attempt_once, lane_parameters, uniform_parameters, locate_earliest,
  runtime_flags) = (None,) * 35
 
 #: samples of f' per mode where the paper's criterion is looked for (then
@@ -85,24 +85,47 @@ def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
 
     Branch-free per lane so that it vectorises (see :func:`_fixed_step_lane`).
     Lane fields sit at compile-time-constant offsets ``FIELD * LANES``, which
-    lets the compiler prove that they do not overlap.  With ``CHAINS = 2`` a
-    full block runs its two halves side by side: each lane's step is a chain
-    of dependent divisions (four for RK4), and two independent chains keep
-    the divider busy where one would wait on latency.
-    """
+    lets the compiler prove that they do not overlap.  x and v alternate
+    between their two banks (layout.FIXED_BANK): a lane visit reads one and
+    writes the other, so the state it keeps where a step is not committed
+    is a blend and a plain store (written back in place, ``x = x1 if ok else
+    x`` compiles to masked stores, which some CPUs (AMD Zen) run many times
+    slower).  After an even count of visits the state is back in bank A.
+    With ``CHAINS = 2`` a full block runs its two halves side by side: each
+    lane's step is a chain of dependent divisions (four for RK4), and two
+    independent chains keep the divider busy where one would wait on
+    latency."""
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
     uniform = uniform_parameters(settings)  # see parameters.py
+    visits = n_substeps // UNROLL
     if CHAINS == 2 and n_active > LANES // 2:
-        for _ in range(n_substeps // UNROLL):
+        for pair in range(visits // 2):
+            k = float(2 * UNROLL * pair)  # the index of the visit's first step in the block
             for i in range(LANES // 2):  # constant offsets: provably disjoint halves
-                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform)
-                fixed_step_lane(lanes, i + LANES // 2, shared, x_lo, x_hi, h, uniform)
+                fixed_step_lane(lanes, i, 0, FIXED_BANK, k, shared, x_lo, x_hi, h, uniform)
+                fixed_step_lane(lanes, i + LANES // 2, 0, FIXED_BANK, k, shared, x_lo, x_hi, h,
+                                uniform)
+            for i in range(LANES // 2):
+                fixed_step_lane(lanes, i, FIXED_BANK, 0, k + UNROLL, shared, x_lo, x_hi, h,
+                                uniform)
+                fixed_step_lane(lanes, i + LANES // 2, FIXED_BANK, 0, k + UNROLL, shared, x_lo,
+                                x_hi, h, uniform)
     else:
-        for _ in range(n_substeps // UNROLL):
+        for pair in range(visits // 2):
+            k = float(2 * UNROLL * pair)
             for i in range(n_active):
-                fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform)
+                fixed_step_lane(lanes, i, 0, FIXED_BANK, k, shared, x_lo, x_hi, h, uniform)
+            for i in range(n_active):
+                fixed_step_lane(lanes, i, FIXED_BANK, 0, k + UNROLL, shared, x_lo, x_hi, h,
+                                uniform)
+    if visits % 2:  # an odd count of visits: the last one, then x and v back to bank A
+        k = float(UNROLL * (visits - 1))
+        for i in range(n_active):
+            fixed_step_lane(lanes, i, 0, FIXED_BANK, k, shared, x_lo, x_hi, h, uniform)
+            lanes[X * LANES + i] = lanes[XB * LANES + i]
+            lanes[V * LANES + i] = lanes[VB * LANES + i]
 
 
 def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared,
@@ -139,17 +162,22 @@ def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2,
     return x1, v1, dw, dk, dwd, fp1, fpp1, ok
 
 
-def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
-    """UNROLL fixed steps on lane i, always taken; a step whose event
-    conditions fired only adds 1 to the lane's FLAG.  The scan after the
-    block replays a flagged lane from its checkpoint, in scalar, up to the
-    step that raised the event.  Why not freeze the lane here with a select
-    (keep x where the step is not clean): a select against the loaded state
-    compiles to masked stores, which some CPUs (AMD Zen) run many times
-    slower than plain ones; a flag costs an add.  An empty lane has D = 0,
-    is never clean, and the scan ignores it."""
-    x = lanes[X * LANES + i]
-    v = lanes[V * LANES + i]
+def _fixed_step_lane(lanes, i, src, dst, k, shared, x_lo, x_hi, h, uniform):
+    """UNROLL fixed steps on lane i, the first of them step ``k`` of the
+    block; x and v read from bank ``src`` and written to bank ``dst``.
+    Every step is computed; it is committed only while its index is below
+    the lane's STOP and its event conditions did not fire, and the first
+    that fired sets STOP to its index.  So the lane ends the block at the
+    start of the step that raised an event (or at its t_max step limit), and
+    the scan resolves it from there: no scalar replay of the block.  An empty
+    lane has D = 0, is never clean, and the scan ignores it.
+
+    The work integrals add 0.0 where a step is not committed, rather than
+    select: W, K and WD start at +0.0 and are never -0.0 (a sum is -0.0 only
+    if both terms are), so ``w + 0.0 == w`` exactly, and the sum stays a
+    plain store (a select against the loaded value becomes a masked store)."""
+    x = lanes[(X + src) * LANES + i]
+    v = lanes[(V + src) * LANES + i]
     d = lanes[D * LANES + i]
     q = lanes[Q * LANES + i]
     qh = lanes[QH * LANES + i]
@@ -162,23 +190,30 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
     drag_b = lanes[DRAG_B * LANES + i]
     drag_c = lanes[DRAG_C * LANES + i]
     drag_work = lanes[WD * LANES + i] if DRAG else 0.0
+    # f', f'' are carried even past a step that is not committed: the scan
+    # evaluates them again at a stopped lane's x
     fp = lanes[FP * LANES + i] if CARRY_SLOPE else 0.0
     fpp = lanes[FPP * LANES + i] if CARRY_SLOPE else 0.0
-    flag = lanes[FLAG * LANES + i]
+    stop = lanes[STOP * LANES + i]
     # UNROLL steps with the state in registers: one load and one store of
     # each field per visit instead of per step
-    for _ in range(UNROLL):
-        x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
+    for u in range(UNROLL):
+        x1, v1, dw, dk, dwd, fp, fpp, ok = step_and_check(
             x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
             x_lo, x_hi)
-        flag += 0.0 if ok else 1.0
-        work += dw
+        step_k = k + u
+        live = step_k < stop
+        stop = step_k if (live & (not ok)) else stop
+        ok = ok & live
+        x = x1 if ok else x
+        v = v1 if ok else v
+        work += dw if ok else 0.0
         if not CONSTANT_CURVATURE:
-            curvature += dk
+            curvature += dk if ok else 0.0
         if DRAG:
-            drag_work += dwd
-    lanes[X * LANES + i] = x
-    lanes[V * LANES + i] = v
+            drag_work += dwd if ok else 0.0
+    lanes[(X + dst) * LANES + i] = x
+    lanes[(V + dst) * LANES + i] = v
     lanes[W * LANES + i] = work
     if not CONSTANT_CURVATURE:
         lanes[K * LANES + i] = curvature
@@ -187,42 +222,24 @@ def _fixed_step_lane(lanes, i, shared, x_lo, x_hi, h, uniform):
     if CARRY_SLOPE:
         lanes[FP * LANES + i] = fp
         lanes[FPP * LANES + i] = fpp
-    lanes[FLAG * LANES + i] = flag
+    lanes[STOP * LANES + i] = stop
 
 
-def _checkpoint_lanes(lanes, n_active):
-    """Save the state the vector loop changes and clear the flags, at the
-    start of a block (vectorised: plain loads and stores)."""
+def _start_block(lanes, n_active, n_substeps):
+    """Each lane's STOP at a block's start: the steps left before its t_max
+    step limit, at most the block's (vectorised: plain loads and stores)."""
     for i in range(n_active):
-        copy_stepped_state(lanes, i, True)
-        lanes[FLAG * LANES + i] = 0.0
+        lanes[STOP * LANES + i] = min(lanes[LIMIT * LANES + i] - lanes[STEPS * LANES + i],
+                                      float(n_substeps))
 
 
-def _copy_stepped_state(lanes, i, to_checkpoint):
-    """Copy the fields the vector loop changes to lane i's checkpoint, or
-    back from it (``to_checkpoint`` False): only those this kernel steps
-    (a copy per lane per block is a measurable share of an Euler step)."""
-    for field, saved in ((X, CX), (V, CV), (W, CW), (K, CK), (WD, CWD), (FP, CFP),
-                         (FPP, CFPP)):
-        if ((field == K and CONSTANT_CURVATURE) or (field == WD and not DRAG)
-                or ((field == FP or field == FPP) and not CARRY_SLOPE)):
-            continue
-        if to_checkpoint:
-            lanes[saved * LANES + i] = lanes[field * LANES + i]
-        else:
-            lanes[field * LANES + i] = lanes[saved * LANES + i]
-
-
-def _replay_lane(lanes, i, settings, shared, n_steps, restore):
-    """Lane i's steps in scalar, from its checkpoint (``restore``) or from
-    its state, committing each clean step while the step count stays below
-    the t_max limit, up to ``n_steps``.  Returns the steps taken: fewer than
+def _replay_lane(lanes, i, settings, shared, n_steps):
+    """Lane i's steps in scalar (to record one trajectory step by step),
+    committing each clean step while the step count stays below the t_max
+    limit, up to ``n_steps``.  Returns the steps taken: fewer than
     ``n_steps`` leaves the lane at the start of the step that raised an
     event, for :func:`_resolve_lane`.  The same arithmetic as the vector
-    loop's, so a replayed trajectory is bit-identical to one that never
-    was."""
-    if restore:
-        copy_stepped_state(lanes, i, False)
+    loop's, so a recorded trajectory is bit-identical to one run in a batch."""
     # the values the vector loop used
     g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform_parameters(settings))
     x_lo = settings[SET_XLO]
@@ -625,6 +642,21 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     if LINEAR_EVENTS and bounded and contact > 0.0:  # the whole step is usable
         return resolve_linear(lanes, i, t_now, exit_lo, exit_hi, reversal, settings, outputs, shared)
     if not bounded:
+        # Most often an event came first: a step that stops early, whose later
+        # stages run on past the stop with the mode's signs, ends with
+        # friction work < 0.  The earliest event that shows at the step's
+        # end, located on [0, h], is a usable end if the state is bounded
+        # there; only otherwise is the bound itself bisected (to rounding:
+        # about 50 trial steps).
+        h_end = locate_earliest(lanes, i, h, exit_lo, exit_hi, contact, reversal, settings,
+                                shared)
+        if h_end > 0.0:
+            bounded, exit_lo, exit_hi, contact, reversal = event_values(lanes, i, h_end, settings,
+                                                                        shared)
+            if not (bounded and min(exit_lo, exit_hi, contact, reversal) <= 0.0):
+                h_end = h  # no usable end found this way: bisect the bound
+                bounded = False
+    if not bounded:
         diverged = np.int64(EV_DIVERGED)  # one argument type for every call: one compilation
         h_end = locate_event(diverged, lanes, i, h, -1.0, settings, shared)
         h_end = h_end * (1.0 - 1e-12)  # the first bad size; step back to a good one
@@ -676,6 +708,21 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
             finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
             return False
     return take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared)
+
+
+def _locate_earliest(lanes, i, h, exit_lo, exit_hi, contact, reversal, settings, shared):
+    """The smallest step size in (0, h] at which one of the event functions
+    whose values after a step h are given (<= 0: it happened) has happened;
+    0 if none did."""
+    values = (exit_lo, exit_hi, contact, reversal)  # the order of EV_EXIT_LO .. EV_REVERSAL
+    earliest = 0.0
+    for k in range(4):
+        value = values[k]
+        if value <= 0.0:
+            h_k = locate_event(np.int64(EV_EXIT_LO + k), lanes, i, h, value, settings, shared)
+            if h_k > 0.0 and (earliest == 0.0 or h_k < earliest):
+                earliest = h_k
+    return earliest
 
 
 def _take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared):
@@ -849,21 +896,18 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
 
     A vectorised pass first counts the lanes that need attention, so that a
     scan with nothing to do costs a few cycles per lane.  For fixed steps it
-    also books the block's steps to the clean lanes (the vector loop does not
-    count them) and marks as pending a lane whose block would pass its t_max
-    step limit, which is then replayed and stops at the limit."""
+    also books the block's steps, STOP of them, to every lane (the vector
+    loop does not count them); a lane that stopped short of the block (an
+    event, or its t_max step limit) is pending, at the start of that step."""
     flagged = 0
     for i in range(n_active):
         v = lanes[V * LANES + i]
         if ADAPTIVE:
             pending = lanes[PENDING * LANES + i] > 0.0
         else:
-            steps = lanes[STEPS * LANES + i]
-            pending = (lanes[FLAG * LANES + i] > 0.0) | (
-                steps + n_substeps > lanes[LIMIT * LANES + i])
-            # plain stores of selected values (no masked stores, see _fixed_step_lane)
-            lanes[STEPS * LANES + i] = steps + (0.0 if pending else n_substeps)
-            lanes[FLAG * LANES + i] = 1.0 if pending else 0.0
+            taken = lanes[STOP * LANES + i]
+            pending = taken < n_substeps
+            lanes[STEPS * LANES + i] += taken
         attention = (lanes[TRAJ * LANES + i] >= 0.0) & (
             pending | (v * v > lanes[VLIM2 * LANES + i]))
         flagged += 1 if attention else 0
@@ -878,13 +922,14 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
             if lanes[STEPS * LANES + i] > lanes[BLOCK_STEPS * LANES + i]:
                 lanes[CASCADE * LANES + i] = 0.0
         else:
-            if lanes[FLAG * LANES + i] > 0.0:
-                advanced = replay_lane(lanes, i, settings, shared, n_substeps, True)
-            else:
-                advanced = n_substeps
-            clean = advanced == n_substeps
-            if advanced > 0:
+            taken = lanes[STOP * LANES + i]
+            clean = taken == n_substeps
+            if taken > 0.0:
                 lanes[CASCADE * LANES + i] = 0.0
+            if CARRY_SLOPE and not clean:
+                # the vector loop carried f', f'' past the step that stopped
+                # the lane: the same function at the same x, the same values
+                refresh_slope(lanes, i, shared)
         if clean:
             v = lanes[V * LANES + i]
             if v * v <= lanes[VLIM2 * LANES + i]:
@@ -939,7 +984,7 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
             for i in range(n_active):
                 lanes[BLOCK_STEPS * LANES + i] = lanes[STEPS * LANES + i]
         else:
-            checkpoint_lanes(lanes, n_active)
+            start_block(lanes, n_active, SUBSTEPS)
         advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
         if scan_lanes(lanes, settings, outputs, shared, SUBSTEPS, n_active) == 0:
             continue
@@ -984,7 +1029,7 @@ def _trace_one(j, inputs, settings, shared, every, trace):
             attempt_once(lanes, 0, settings, shared)
             event = lanes[PENDING * LANES] > 0.0
         else:
-            event = replay_lane(lanes, 0, settings, shared, 1, False) == 0
+            event = replay_lane(lanes, 0, settings, shared, 1) == 0
         stepped = lanes[STEPS * LANES] > before
         if stepped:
             lanes[CASCADE * LANES] = 0.0
@@ -1097,11 +1142,11 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         method_parts = (
             ("start_value", _start_value), ("trial_step", _trial_step),
             ("event_values", _event_values), ("event_value", _event_value),
-            ("locate_event", _locate_event), ("apply_step", _apply_step),
+            ("locate_event", _locate_event), ("locate_earliest", _locate_earliest),
+            ("apply_step", _apply_step),
             ("start_adaptive", _no_adaptive_start),
             ("step_and_check", _step_and_check), ("fixed_step_lane", _fixed_step_lane),
-            ("copy_stepped_state", _copy_stepped_state),
-            ("checkpoint_lanes", _checkpoint_lanes), ("replay_lane", _replay_lane),
+            ("start_block", _start_block), ("replay_lane", _replay_lane),
         )
     if variant.paper_criterion or variant.runtime:
         add("_paper_holds", _paper_holds, **no_refcount)

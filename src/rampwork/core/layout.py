@@ -18,10 +18,14 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # FRESH: 1 from a two-sided contact switch until the next accepted step.
 # Air drag (kernels built with drag only): DRAG_B, DRAG_C, the coefficients b
 # (1/s) and c (1/m); WD, the work against drag per unit mass.
-# Fixed-step methods only: FLAG counts the steps of the current block of
-# SUBSTEPS whose event conditions fired (the vector loop steps on
-# regardless); CX .. CFPP hold the state at the block's start, from which a
-# flagged lane is replayed in scalar up to its event.  Adaptive methods only:
+# Fixed-step methods only: STOP, the steps the lane takes in the current
+# block of SUBSTEPS: set at the block's start to the steps left before the
+# t_max step limit (at most SUBSTEPS), lowered by the vector loop to the
+# index of the first step whose event conditions fired; the lane keeps the
+# state at that step's start, where the scan resolves the event.  XB, VB:
+# x and v's second bank (x at X or XB, v at V or VB: one offset,
+# FIXED_BANK), which the vector loop's steps alternate between, as the
+# adaptive banks below.  Adaptive methods only:
 # BLOCK_STEPS, the step count at the block's start (a lane that stepped since
 # has made progress: its event cascade count restarts).  Fixed-step methods
 # only, set with the mode: DSIGN, the sign bit of D as a float (-0.0 or 0.0),
@@ -37,10 +41,11 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # adaptive._advance_lanes_adaptive), so every store is unconditional.
 (X, V, FP, FPP, W, K, WD, A1, T, H, LERR, REJ, FRESH,
  Q, D, SN, S, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
- STEPS, FLAG, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
+ STEPS, STOP, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
  NREJ, EEST, PENDING, DRAG_B, DRAG_C, XP, PXM,
- CX, CV, CW, CK, CWD, CFP, CFPP, BLOCK_STEPS, DSIGN, QH, AHEAD) = range(54)
-N_FIELDS = 54
+ XB, VB, BLOCK_STEPS, DSIGN, QH, AHEAD) = range(49)
+N_FIELDS = 49
+FIXED_BANK = XB - X  # x's and v's second bank (fixed steps): VB - V too
 N_BANKED = 13
 BANK_B = N_FIELDS  # field F's bank-B copy is F + BANK_B (F < N_BANKED)
 N_LANE_FIELDS = N_FIELDS + N_BANKED  # adaptive kernels; fixed-step ones have no bank B
