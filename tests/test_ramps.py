@@ -238,7 +238,7 @@ def test_cycloid_against_long_double(r):
     """f, f', f'' over 3e5 points (uniform, both cusps down to pi - |u| = 1e-5,
     the switch between the formulations, x -> 0), against a long double
     inverse.  Measured over 1e7 points per range (benchmarks/vmath.py): at
-    most 4.7, 4.1 and 13.8 ulp (f'' = (1 + f'^2)^2 / 4r multiplies the
+    most 4.7, 4.1 and 13.9 ulp (f'' = (1 + f'^2)^2 / 4r multiplies the
     error of f' by up to 4 near the cusps); the mean stays below 2 ulp."""
     rng = np.random.default_rng(8)
     n = 100_000

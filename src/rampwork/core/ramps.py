@@ -129,7 +129,7 @@ def circular_dome_slope_curvature(x, p0, p1, p2, p3, shared):
 # by the angle sum, tan(z0/2 + e) = t0 + (1 + t0^2) e (1 + e t0) (t0 = tan(z0/2);
 # cot likewise).  Newton's error after the step, ~e^2 / z, is far below an ulp;
 # what is left is rounding, measured over 1e7 points per range
-# (benchmarks/vmath.py): f <= 4.7 ulp, f' <= 4.1, f'' <= 13.8 (near the cusps;
+# (benchmarks/vmath.py): f <= 4.7 ulp, f' <= 4.1, f'' <= 13.9 (near the cusps;
 # mean <= 2), about as before with libm and five Newton steps (tests/test_ramps.py).
 # One division per evaluation (tan or cot of z0/2), plus 1/r where r is not
 # uniform (hoisted out of the lane loops where it is).
