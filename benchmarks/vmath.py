@@ -1,11 +1,16 @@
-"""Error table and speed of core.vmath's sin, cos (and cbrt) (issue 19, item 3).
+"""Error table and speed of core.vmath's sin, cos (and cbrt), and of the cycloid family (issue 19, item 3).
 
 Error: over ``--n`` (default 10**7) arguments per function and range, the
 maximum and mean error in ulps against the exact value (long double sinl/cosl,
 11 bits more than a double, where the platform has an 80-bit long double; else
 numpy's float64, then the figures are distances to numpy), and the share of
 results that are correctly rounded (equal to the long double value rounded
-to double).  numpy's own float64 error is listed for comparison.
+to double).  numpy's own float64 error is listed for comparison.  Then inverse_cbrt,
+sin_small and cos_small (the cycloid's helpers), and the cycloid family's
+f, f', f'' (core.ramps, no libm call) against a long double inverse of
+x = r (u + sin u), over ``--n`` arguments per range and radius (r = 1 and
+0.5: powers of 2, so that x / r is exact in the reference), the ranges
+including both cusps, the switch between the two formulations and x -> 0.
 
 Speed: arguments/s of vmath.sin, vmath.sincos and math.sin, math.sin plus
 math.cos in a jitted loop over an array (the loop vectorises only with vmath).
@@ -50,6 +55,92 @@ def ulp_error(got, exact, np):
     return np.abs((got.astype(np.longdouble) - exact) / ulp.astype(np.longdouble)).astype(np.float64)
 
 
+# -- the cycloid family's u(x) (core.ramps), against a long double inverse ----
+
+CYCLOID_RANGES = ("uniform |x| < pi r", "near the cusps (pi - |u| log-spaced 1e-5..pi/2)",
+                  "near the centre/ends switch (1e-6 relative)", "near 0 (|x| log-spaced 1e-300..0.1)")
+
+
+def cycloid_arguments(label, n, r, np, rng):
+    if label.startswith("uniform"):
+        x = rng.uniform(-math.pi * r, math.pi * r, n)
+    elif label.startswith("near the cusps"):
+        w = 10.0 ** rng.uniform(-5.0, math.log10(math.pi / 2), n).astype(np.longdouble)
+        x = (r * (np.longdouble(math.pi) - (w - np.sin(w)))).astype(np.float64)
+    elif label.startswith("near the centre"):
+        x = (0.5 * math.pi + 1.0) * r * (1.0 + rng.uniform(-1e-6, 1e-6, n))
+    else:
+        x = 10.0 ** rng.uniform(-300.0, -1.0, n)
+    return x * rng.choice([-1.0, 1.0], n)
+
+
+def cycloid_exact(x, r, np):
+    """(f, f', f'') at x in long double; r must be a power of 2 (x / r exact)."""
+    from decimal import Decimal
+
+    L = np.longdouble
+    pi_hi = L("3.14159265358979323846264338327950288")  # pi to 64 bits
+    # pi - pi_hi, from 40 digits of pi and the exact value of pi_hi
+    hi = float(pi_hi)
+    pi_lo = L(float(Decimal("3.141592653589793238462643383279502884197") - Decimal(hi)
+                    - Decimal(float(pi_hi - L(hi)))))
+    s = np.abs(x).astype(L) / L(r)
+    centre = s < L(0.5 * math.pi + 1.0)
+    t = (pi_hi - s) + pi_lo  # exact subtraction (Sterbenz) at the ends
+    z = s / 2
+    for _ in range(8):  # z + sin z = s
+        z = z - (z + np.sin(z) - s) / (1 + np.cos(z))
+    tp = np.where(centre, L(1), t)
+    w = np.cbrt(6 * tp)
+    for _ in range(10):  # w - sin w = t, with w - sin w summed as a series for small w
+        w2 = w * w
+        series = w * w2 * (L(1) / 6 - w2 * (L(1) / 120 - w2 * (L(1) / 5040 - w2 * (L(1) / 362880 - w2 * (
+            L(1) / 39916800 - w2 * (L(1) / 6227020800 - w2 / L(1307674368000)))))))
+        g = np.where(w < 0.1, series, w - np.sin(w))
+        w = w - (g - tp) / (2 * np.sin(w / 2) ** 2)
+    sh = np.where(centre, np.sin(z / 2), np.cos(w / 2))  # sin(u/2), cos(u/2)
+    ch = np.where(centre, np.cos(z / 2), np.sin(w / 2))
+    return 2 * L(r) * sh * sh, np.copysign(sh / ch, x.astype(L)), 1 / (4 * L(r) * ch ** 4)
+
+
+def cycloid_table(n, chunk, np, rng):
+    from rampwork.core import ramps as core
+    from rampwork.core.jit import jit
+
+    @jit(cache=False)
+    def cycloid_loop(x, r, f, fp, fpp):
+        for i in range(x.size):
+            f[i] = core.cycloid_height(x[i], r, 0.0, 0.0, 0.0, x)
+            fp[i], fpp[i] = core.cycloid_slope_curvature(x[i], r, 0.0, 0.0, 0.0, x)
+
+    rows, table = [], []
+    for r in (1.0, 0.5):
+        for label in CYCLOID_RANGES:
+            worst = {"f": 0.0, "f'": 0.0, "f''": 0.0}
+            total = dict.fromkeys(worst, 0.0)
+            done = 0
+            while done < n:
+                m = min(chunk, n - done)
+                x = cycloid_arguments(label, m, r, np, rng)
+                x = x[np.abs(x) < math.pi * r]
+                x = x[[core.cycloid_cusp_gap(abs(float(v)), r) > 0 for v in x]] if label.startswith("near the cusps") else x
+                f, fp, fpp = np.empty_like(x), np.empty_like(x), np.empty_like(x)
+                cycloid_loop(x, r, f, fp, fpp)
+                for key, got, exact in zip(worst, (f, fp, fpp), cycloid_exact(x, r, np)):
+                    err = ulp_error(got, exact, np)
+                    worst[key] = max(worst[key], float(err.max()))
+                    total[key] += float(err.sum())
+                done += m
+            for key in worst:
+                entry = {"function": f"cycloid {key}", "range": f"{label}, r = {r:g}", "n": n,
+                         "max_ulp": worst[key], "mean_ulp": total[key] / n}
+                table.append(entry)
+                rows.append([entry["function"], entry["range"], f"{n:.0e}", f"{worst[key]:.3f}",
+                             f"{entry['mean_ulp']:.4f}"])
+                print("  " + "  ".join(rows[-1]), flush=True)
+    return rows, table
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=float, default=1e7, help="arguments per function and range (default 1e7)")
@@ -92,6 +183,21 @@ def main(argv=None):
     def cbrt_loop(x, s):
         for i in range(x.size):
             s[i] = vmath.cbrt(x[i])
+
+    @jit(cache=False)
+    def inverse_cbrt_loop(x, s):
+        for i in range(x.size):
+            s[i] = vmath.inverse_cbrt(x[i])
+
+    @jit(cache=False)
+    def sin_small_loop(x, s):
+        for i in range(x.size):
+            s[i] = vmath.sin_small(x[i])
+
+    @jit(cache=False)
+    def cos_small_loop(x, s):
+        for i in range(x.size):
+            s[i] = vmath.cos_small(x[i])
 
     @jit(cache=False)
     def libm_cbrt_loop(x, s):
@@ -140,6 +246,26 @@ def main(argv=None):
     ref = np.cbrt(x)
     cbrt_err = float((np.abs(out - ref) / np.spacing(np.minimum(out, ref))).max())
     print(f"cbrt: max {cbrt_err:.0f} ulp from numpy.cbrt over {x.size:.0e} arguments in [1e-300, 1e300]")
+    inverse_cbrt_loop(x, out)
+    exact = 1 / np.cbrt(x.astype(np.longdouble))
+    inverse_cbrt_err = float(ulp_error(out, exact, np).max())
+    print(f"inverse_cbrt: max {inverse_cbrt_err:.2f} ulp over {x.size:.0e} arguments in [1e-300, 1e300]")
+    # sin_small, cos_small: |x| <= pi/4 without range reduction
+    small_rows = []
+    for name, loop, numpy_f in (("sin_small", sin_small_loop, np.sin), ("cos_small", cos_small_loop, np.cos)):
+        worst, done = 0.0, 0
+        while done < n:
+            m = min(args.chunk, n - done)
+            xs = rng.uniform(-math.pi / 4, math.pi / 4, m)
+            loop(xs, out[:m])
+            worst = max(worst, float(ulp_error(out[:m], numpy_f(xs.astype(np.longdouble)), np).max()))
+            done += m
+        small_rows.append([name, "|x| <= pi/4", f"{n:.0e}", f"{worst:.3f}"])
+        table.append({"function": name, "range": "|x| <= pi/4", "n": n, "max_ulp": worst})
+        print("  " + "  ".join(small_rows[-1]), flush=True)
+    print(f"cycloid family (core.ramps) over {n:.0e} arguments per range and radius, against long double")
+    cycloid_rows, cycloid_entries = cycloid_table(n, args.chunk, np, rng)
+    table += cycloid_entries
 
     # speed: best of 5 over one array
     x = rng.uniform(-1e5, 1e5, args.speed_n)
@@ -165,14 +291,18 @@ def main(argv=None):
     text = (f"core.vmath error over {n:.0e} arguments per function and range, against {reference}\n\n"
             + C.text_table(["function", "range", "n", "max ulp", "mean ulp", "correctly rounded",
                             "numpy max ulp"], rows)
-            + f"\n\ncbrt: max {cbrt_err:.0f} ulp from numpy.cbrt\n\n"
+            + f"\n\ncbrt: max {cbrt_err:.0f} ulp from numpy.cbrt; inverse_cbrt: max {inverse_cbrt_err:.2f} ulp\n\n"
+            + C.text_table(["function", "range", "n", "max ulp"], small_rows)
+            + f"\n\ncycloid family (core.ramps) over {n:.0e} arguments per range and radius, "
+            + "against long double:\n\n"
+            + C.text_table(["function", "range", "n", "max ulp", "mean ulp"], cycloid_rows) + "\n\n"
             + f"speed, jitted loop over {args.speed_n:.0e} arguments (one thread), arguments/s:\n\n"
             + C.text_table(["function", "arguments/s"], speed_rows)
             + "\n\nvmath / libm: " + ", ".join(f"{k} {v:.1f}x" for k, v in ratios.items()) + "\n")
     print(text)
     stamp = C.timestamp()
     data = {"utc": C.utc_now(), "machine": C.machine_info(), "reference": reference, "errors": table,
-            "cbrt_max_ulp_vs_numpy": cbrt_err, "speed_arguments_per_s": speed, "speed_ratios": ratios,
+            "cbrt_max_ulp_vs_numpy": cbrt_err, "inverse_cbrt_max_ulp": inverse_cbrt_err, "speed_arguments_per_s": speed, "speed_ratios": ratios,
             "config": {"n": n, "speed_n": args.speed_n}}
     C.save_json(args.out / f"vmath-{stamp}.json", data)
     C.save_text(args.out / f"vmath-{stamp}.txt", text)

@@ -109,25 +109,36 @@ def circular_dome_slope_curvature(x, p0, p1, p2, p3, shared):
 # ---------------------------------------------------------------------------
 # cycloid bowl: x = r (u + sin u), y = r (1 - cos u), -pi < u < pi; p0 = r.
 #
-# u(x) is found by Newton with a fixed iteration count.  With s = |x| / r:
-#   centre (s < pi/2 + 1, i.e. |u| < pi/2): solve z + sin z = s for z = |u|;
-#   ends   (s >= pi/2 + 1): solve w - sin w = t for w = pi - |u|, where
+# u(x), with s = |x| / r, is found in one of two formulations:
+#   centre (s < pi/2 + 1, i.e. |u| < pi/2): z + sin z = s for z = |u|;
+#   ends   (s >= pi/2 + 1): w - sin w = t for w = pi - |u|, where
 #          t = (pi r - |x|) / r is formed to ~1 ulp (cycloid_cusp_gap), so the
 #          ends are as accurate as the centre although u(x) is ill-conditioned
 #          there (the error is not amplified by rounding of |x| / r).
 # Both are  F(z) = alpha*z + beta*S(z) - a = 0  with S(z) = z - sin z summed as
 # a series (no cancellation for small w), (alpha, beta) = (2, -1) at the centre
-# and (0, 1) at the ends, F'(z) = alpha + 2*beta*sin(z/2)**2.  Starting guesses
-# come from the series inverses (|u| ~ v + v^3/12 + v^5/60 with v = s/2; and
-# w ~ c (1 + c^2/60) with c = (6t)^(1/3), the cube-root law at the cusps), so the
-# fixed count converges to ~1 ulp of z over the whole open domain.
+# and (0, 1) at the ends, F'(z) = 2 den^2 with den = cos(z/2) at the centre and
+# sin(z/2) at the ends.
+#
+# No iteration loop and no libm call (the lane loops vectorise): a polynomial
+# starting guess z0, accurate to ~1e-9 (centre: z/s as a polynomial in s^2;
+# ends: w/c in c^2 with c = (6t)^(1/3), the cube-root law at the cusps, c from
+# vmath.inverse_cbrt), then ONE Newton correction dz = -F(z0)/F'(z0), which
+# is not added to z0 but folded into the results to second order:
+# sin and cos of z/2 = z0/2 + e (e = dz/2, |e| < ~1e-9 z) from those of z0/2
+# by the angle sum, tan(z0/2 + e) = t0 + (1 + t0^2) e (1 + e t0) (t0 = tan(z0/2);
+# cot likewise).  Newton's error after the step, ~e^2 / z, is far below an ulp;
+# what is left is rounding, measured over 1e7 points per range
+# (benchmarks/vmath.py): f <= 4.7 ulp, f' <= 4.1, f'' <= 13.9 (near the cusps;
+# mean <= 2), about as before with libm and five Newton steps (tests/test_ramps.py).
+# One division per evaluation (tan or cot of z0/2), plus 1/r where r is not
+# uniform (hoisted out of the lane loops where it is).
 
 PI_HI = math.pi
 PI_LO = 1.2246467991473532e-16  # pi - PI_HI
 PI_SPLIT_HI = 134217729.0 * PI_HI - (134217729.0 * PI_HI - PI_HI)  # PI_HI in two 26-bit halves
 PI_SPLIT_LO = PI_HI - PI_SPLIT_HI
 CYCLOID_SPLIT = 0.5 * math.pi + 1.0  # s where |u| = pi/2
-CYCLOID_NEWTON_STEPS = 5  # (4 reach ~1 ulp; one to spare) unrolled in _cycloid_half_angle
 
 # coefficients of (z - sin z) / z^3 as a series in z^2: (-1)^k / (2k+3)!
 _S0 = 1.0 / 6.0
@@ -142,22 +153,34 @@ _S8 = 1.0 / 121645100408832000.0
 _S9 = -1.0 / 51090942171709440000.0
 _S10 = 1.0 / 25852016738884976640000.0
 
+# starting guesses, least-squares fits on Chebyshev nodes (max relative error
+# ~8e-10 and ~1e-10): centre z/s in X = s^2 on [0, CYCLOID_SPLIT^2];
+# ends w/c in X = c^2, c = (6t)^(1/3), on [0, (6 (pi/2 - 1))^(2/3)]
+_GC = (0.5000000002886311, 0.010416652361574155, 0.0005209503002250916, 3.295336852691848e-05,
+       3.0168910936191316e-06, -4.143793527868693e-07, 3.85385359558382e-07, -1.496898423055483e-07,
+       4.1305560708098214e-08, -7.462684685263945e-09, 8.679888170481831e-10, -5.855086011035084e-11,
+       1.7853644709429803e-12)
+_GE = (1.0000000000664908, 0.016666663838167176, 0.0007143052714721175, 3.9632185682430656e-05,
+       2.5540314691718877e-06, 1.3129346499713012e-07, 2.238102360659865e-08)
+(_GC0, _GC1, _GC2, _GC3, _GC4, _GC5, _GC6, _GC7, _GC8, _GC9, _GC10, _GC11, _GC12) = _GC
+(_GE0, _GE1, _GE2, _GE3, _GE4, _GE5, _GE6) = _GE
+_CBRT6 = 6.0 ** (1.0 / 3.0)
+
 
 @jit
 def _z_minus_sin_z(z):
     """z - sin(z) without cancellation for |z| <~ 2 (relative error ~1 ulp)."""
     z2 = z * z
-    p = _S10
-    p = p * z2 + _S9
-    p = p * z2 + _S8
-    p = p * z2 + _S7
-    p = p * z2 + _S6
-    p = p * z2 + _S5
-    p = p * z2 + _S4
-    p = p * z2 + _S3
-    p = p * z2 + _S2
-    p = p * z2 + _S1
-    p = p * z2 + _S0
+    p = fma(z2, _S10, _S9)
+    p = fma(z2, p, _S8)
+    p = fma(z2, p, _S7)
+    p = fma(z2, p, _S6)
+    p = fma(z2, p, _S5)
+    p = fma(z2, p, _S4)
+    p = fma(z2, p, _S3)
+    p = fma(z2, p, _S2)
+    p = fma(z2, p, _S1)
+    p = fma(z2, p, _S0)
     return p * (z2 * z)
 
 
@@ -175,53 +198,91 @@ def cycloid_cusp_gap(ax, r):
 
 
 @jit
-def _cycloid_newton_step(z, a, alpha, beta):
-    sh = math.sin(0.5 * z)
-    return z - (alpha * z + beta * _z_minus_sin_z(z) - a) / (alpha + 2.0 * beta * sh * sh)
+def _cycloid_guess(s, t):
+    """Starting guesses (centre z0 from s, ends w0 from t), ~1e-9 relative."""
+    x2 = s * s
+    g = fma(x2, _GC12, _GC11)
+    g = fma(x2, g, _GC10)
+    g = fma(x2, g, _GC9)
+    g = fma(x2, g, _GC8)
+    g = fma(x2, g, _GC7)
+    g = fma(x2, g, _GC6)
+    g = fma(x2, g, _GC5)
+    g = fma(x2, g, _GC4)
+    g = fma(x2, g, _GC3)
+    g = fma(x2, g, _GC2)
+    g = fma(x2, g, _GC1)
+    z0 = s * fma(x2, g, _GC0)
+    # c = (6t)^(1/3) = 6^(1/3) t (t^(-1/3))^2; NaN beyond the cusps (t < 0)
+    y = vmath.inverse_cbrt(t)
+    c = _CBRT6 * (t * (y * y)) if t >= 0.0 else math.nan
+    c2 = c * c
+    g = fma(c2, _GE6, _GE5)
+    g = fma(c2, g, _GE4)
+    g = fma(c2, g, _GE3)
+    g = fma(c2, g, _GE2)
+    g = fma(c2, g, _GE1)
+    w0 = c * fma(c2, g, _GE0)
+    return z0, w0
 
 
-@jit(inline="always")  # too big for LLVM's inliner: inline in numba's IR instead
+@jit
+def _cycloid_solve(ax, r):
+    """The pieces every cycloid result is made of, at ax = |x|:
+    (centre, sh, ch, t0, e): sh, ch = sin and cos of z0/2 at the guess z0;
+    t0 = tan(z0/2) at the centre, cot(z0/2) at the ends; e = half the Newton
+    correction of z0 (the exact z/2 is z0/2 + e + O(e^2/z))."""
+    inv_r = 1.0 / r  # hoisted out of the lane loops where r is uniform
+    s = ax * inv_r
+    t = cycloid_cusp_gap(ax, r) * inv_r
+    centre = s < CYCLOID_SPLIT
+    z0, w0 = _cycloid_guess(s, t)
+    z = z0 if centre else w0
+    # F(z) = 2z - S(z) - s (2z - s is exact: Sterbenz) or S(z) - t
+    sz = _z_minus_sin_z(z)
+    f = (2.0 * z - s) - sz if centre else sz - t
+    sh = vmath.sin_small(0.5 * z)
+    ch = vmath.cos_small(0.5 * z)
+    num = sh if centre else ch
+    den = ch if centre else sh
+    t0 = num / den  # the one division: select first (a select of quotients divides twice)
+    # e = -F / (2 F'), F' = 2 den^2 with den = ch (centre) or sh (ends),
+    # and 1 / den^2 = 1 + t0^2 in both
+    e = -0.25 * f * fma(t0, t0, 1.0)
+    return centre, sh, ch, t0, e
+
+
+@jit
 def _cycloid_half_angle(x, r):
     """(sin(u/2), cos(u/2)) of the cycloid parameter u at x, for |u|; the caller
     restores the sign of sin(u/2) from x."""
-    s = abs(x) / r
-    centre = s < CYCLOID_SPLIT
-    t = cycloid_cusp_gap(abs(x), r) / r
-    v = 0.5 * s
-    v2 = v * v
-    guess_centre = v * (1.0 + v2 * (1.0 / 12.0 + v2 * (1.0 / 60.0)))
-    c = (6.0 * t) ** (1.0 / 3.0)
-    guess_end = c * (1.0 + c * c * (1.0 / 60.0))
-    a = s if centre else t
-    alpha = 2.0 if centre else 0.0
-    beta = -1.0 if centre else 1.0
-    z = guess_centre if centre else guess_end
-    # CYCLOID_NEWTON_STEPS steps, unrolled by hand so that a lane loop around
-    # this stays an innermost loop (LLVM vectorises innermost loops only)
-    z = _cycloid_newton_step(z, a, alpha, beta)
-    z = _cycloid_newton_step(z, a, alpha, beta)
-    z = _cycloid_newton_step(z, a, alpha, beta)
-    z = _cycloid_newton_step(z, a, alpha, beta)
-    z = _cycloid_newton_step(z, a, alpha, beta)
-    sh = math.sin(0.5 * z)
-    ch = math.cos(0.5 * z)
-    # centre: z = |u|, so (sin, cos)(|u|/2) = (sh, ch); ends: z = pi - |u|, swapped
-    sin_half = sh if centre else ch
-    cos_half = ch if centre else sh
+    centre, sh, ch, t0, e = _cycloid_solve(abs(x), r)
+    sin_z = fma(ch, e, sh)  # sin and cos of z/2 = z0/2 + e (e^2 terms < 1e-18)
+    cos_z = fma(-sh, e, ch)
+    # centre: z = |u|; ends: z = pi - |u|, so sin and cos of u/2 swap
+    sin_half = sin_z if centre else cos_z
+    cos_half = cos_z if centre else sin_z
     return sin_half, cos_half
 
 
-@jit(inline="always")
+@jit
 def cycloid_height(x, p0, p1, p2, p3, shared):
     sin_half, cos_half = _cycloid_half_angle(x, p0)
     return 2.0 * p0 * sin_half * sin_half  # r (1 - cos u)
 
 
-@jit(inline="always")
+@jit
 def cycloid_slope_curvature(x, p0, p1, p2, p3, shared):
-    sin_half, cos_half = _cycloid_half_angle(x, p0)
-    c2 = cos_half * cos_half
-    return math.copysign(sin_half / cos_half, x), 1.0 / (4.0 * p0 * (c2 * c2))
+    centre, sh, ch, t0, e = _cycloid_solve(abs(x), p0)
+    sign = 1.0 if centre else -1.0
+    # tan(a + e) = t + (1 + t^2) e (1 + e t) + O(e^3); cot(a + e) likewise with -e
+    slope = fma(fma(t0, t0, 1.0) * e, fma(e, t0, sign), t0)
+    # f'' = 1 / (4 r cos^4(u/2)) = (1 + f'^2)^2 / (4 r): no second division
+    # (from 1 / den^4 instead it is a little more accurate near the cusps,
+    # ~9.7 against ~13 ulp, but jitters more at the switch between the two
+    # formulations, where f'' must stay monotone: test_ramps.py)
+    q = fma(slope, slope, 1.0)
+    return math.copysign(slope, x), (q * q) * (0.25 / p0)
 
 
 @jit
