@@ -1071,6 +1071,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     if variant.adaptive:
         pair = ADAPTIVE_STEPPERS[variant.method]
         constants["PI_ALPHA"], constants["PI_BETA"] = pair.pi_gains
+        constants["SWING_LIMIT2"] = pair.swing_limit ** 2
         for key, template in pair.helpers:
             add(key, template, **no_refcount)
         add("step", pair.step, **no_refcount)
@@ -1085,6 +1086,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
             ("start_adaptive", adaptive_parts._start_adaptive),
             ("dense_value", adaptive_parts._dense_value),
             ("locate_dense", adaptive_parts._locate_dense),
+            ("step_to_event", adaptive_parts._step_to_event),
         )
     else:
         add("_with_drag", steppers._with_drag, **no_refcount)
