@@ -27,8 +27,7 @@ import math
 import numpy as np
 
 from . import status as st
-from .control import (ERROR_FLOOR, ERROR_TINY, PI_DOPRI5, SAFETY, exp2_approx, log2_approx,
-                      step_factor)
+from .control import ERROR_FLOOR, ERROR_TINY, FACTOR_MAX, PI_DOPRI5, log2_approx, step_factor
 from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
 from .jit import fma
 from .physics import acceleration, drag_rate, normal_term
@@ -53,7 +52,7 @@ SWING_LIMIT2 = 0.64  # the pair's bound on (h omega)^2 (steppers.AdaptivePair.sw
 CHAINS = 2
 (error_norm2, error_norm2_drag, apply_event, rebase, finish_lane, dense_value,
  locate_dense, attempt, dense_point, refresh_slope, set_mode, contact_holds,
- lane_parameters, uniform_parameters, step_to_event) = (None,) * 15
+ lane_parameters, uniform_parameters, step_to_event, event_step) = (None,) * 16
 
 #: log2 of an error norm that is not finite, or of a step that left the speed
 #: bound: large enough that the step shrinks by the controller's largest factor
@@ -61,14 +60,10 @@ LOG2_ERROR_BAD = 1.0e3
 LOG2_ERROR_FLOOR = math.log2(ERROR_FLOOR)
 #: an error norm beyond this is treated as not finite
 ERROR_NORM_BAD = 1.0e300
-#: keeps the swing test's logarithms finite where x or a does not change
-SWING_TINY = 1.0e-300
+#: a step beyond the swing bound is refused and shrunk by this factor
+SWING_SHRINK = 0.5
 #: two rounding units of x: a smaller change of x is not a measured swing
 X_ROUNDING = 4.5e-16
-#: log2 range of the factor the swing test allows (above: the controller's own
-#: cap, FACTOR_MAX = 10, is lower; below: exp2_approx's range, non-finite steps)
-SWING_LOG2_CAP = 4.0
-SWING_LOG2_FLOOR = -60.0
 
 
 def _contact_holds(sn, n_end, n_low, n_high):
@@ -200,15 +195,19 @@ def _attempt(lanes, i, src, dst, shared, limits, uniform):
     # the step's secant of the restoring acceleration.  Beyond it a pair's
     # embedded estimate stops growing with h while its true error explodes
     # (dopri5 at rtol 1e-3 on a bowl: h omega = 1.2, estimate 0.64, true 18),
-    # so a loose tolerance would accept steps that gain energy.  Compared in
-    # log2 (no division), and the next step is held below the bound too, so
-    # the controller does not grow into it again.
-    # (a step that moves x by less than its rounding, from rest on a straight
-    # ramp whose pull is 1e-16 g, sees only the rounding of a: no test there)
-    swing_log2 = 0.5 * (log2_approx(SWING_LIMIT2 * (abs(x1 - x) + X_ROUNDING * abs(x))
-                                    + SWING_TINY)
-                        - log2_approx(h * h * abs(a7 - a1) + SWING_TINY))
-    swing = swing_log2 < 0.0
+    # so a loose tolerance would accept steps that gain energy.  Compared as
+    # products (no division, no logarithm: this is the lane loop); the next
+    # step may grow only as far as stays below the bound, so the controller
+    # does not grow into it again.  (A step that moves x by less than its
+    # rounding, from rest on a straight ramp whose pull is 1e-16 g, sees only
+    # the rounding of a: no test there.)
+    swing2 = h * h * abs(a7 - a1)
+    bound2 = SWING_LIMIT2 * (abs(x1 - x) + X_ROUNDING * abs(x))
+    swing = swing2 > bound2
+    # the largest of (1, 2, 4, 8, 10) that keeps (h omega)^2 within the bound
+    growth = (SWING_SHRINK if swing else 1.0 if 4.0 * swing2 > bound2
+              else 2.0 if 16.0 * swing2 > bound2 else 4.0 if 64.0 * swing2 > bound2
+              else 8.0 if 100.0 * swing2 > bound2 else FACTOR_MAX)
     accepted = accepted & (not swing)
     commit = accepted & (not event) & (not frozen)
     hold = frozen | (accepted & event)
@@ -216,7 +215,7 @@ def _attempt(lanes, i, src, dst, shared, limits, uniform):
                   if bounded else LOG2_ERROR_BAD)
     factor = step_factor(log2_error, last_log2_error, accepted, rejected_before > 0.0,
                          PI_ALPHA, PI_BETA)
-    factor = min(factor, SAFETY * exp2_approx(min(max(swing_log2, SWING_LOG2_FLOOR), SWING_LOG2_CAP)))
+    factor = min(factor, growth)
     factor = min(factor, CONTACT_SHRINK) if rough else factor
     h_new = min(h * factor, h_max)
     lanes[(X + dst) * LANES + i] = x1 if commit else x
@@ -473,7 +472,7 @@ def _step_to_event(lanes, i, kind, h_event, h_end, settings, shared):
     d = lanes[D * LANES + i]
     h = h_end if kind == EV_TIMEOUT else h_event
     for attempt_ in range(2):
-        (x1, v1, dw, dk, a7, _, _, _, _, ew, _, _, _, _, _, _, _, dwd, _, _) = step(
+        (x1, v1, dw, dk, a7, _, _, _, _, ew, _, _, _, _, _, _, _, dwd, _, _) = event_step(
             x, v, lanes[FP * LANES + i], lanes[FPP * LANES + i], lanes[A1 * LANES + i],
             lanes[Q * LANES + i], d, h, lanes[G * LANES + i], lanes[P0 * LANES + i],
             lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,

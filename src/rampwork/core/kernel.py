@@ -1075,6 +1075,9 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         for key, template in pair.helpers:
             add(key, template, **no_refcount)
         add("step", pair.step, **no_refcount)
+        # a copy of its own for the scalar step to an event: a second call
+        # site of `step` keeps LLVM from inlining it into the lane loop
+        add("event_step", pair.step, **no_refcount)
         add("dense_output", pair.dense, **no_refcount)
         add("dense_point", pair.dense_point, **no_refcount)
         constants["error_norm2"] = pair.error_norm2  # jitted already: no scene constants
