@@ -99,3 +99,38 @@ def test_loose_end_comes_to_rest_with_the_energy_balance(name, method, rtol, ato
     balance = rest_work(x0, v0, got["x_end"])
     assert got["W_friction"] == pytest.approx(balance, rel=1e-2), got
     assert got["W_friction"] == pytest.approx(ref["W_friction"], rel=1e-2), (got, ref["W_friction"])
+
+
+def test_accuracy_ends_benchmark_runs_and_counts_no_wrong_outcome(tmp_path):
+    """benchmarks/accuracy_ends.py --quick end to end: every pair and tolerance
+    reported, no wrong outcome on its 1,000 starts, median W error within
+    rtol, maximum within 10 rtol at the loose end (main: 140 rtol at 1e-3),
+    and at the tight end as below."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root / "src"))
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "accuracy_ends.py"), "--quick",
+                           "--out", str(tmp_path)], cwd=root, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    results = json.loads((tmp_path / "accuracy_ends.json").read_text())["results"]
+    assert sorted((r["method"], r["rtol"]) for r in results) == sorted(
+        (m, r) for m in PAIRS for r in (1e-3, 1e-4, 1e-12, 1e-13))
+    for r in results:
+        assert r["wrong"] == 0, r
+        assert r["W_error_median"] <= r["rtol"], r
+        if r["rtol"] >= 1e-4:
+            assert r["W_error_max"] <= 10 * r["rtol"], r
+            continue
+        # tight end: exits (short trajectories; main: 2e-11 on the full grid)
+        # within 1e-12, which holds the scipy reference's own error there
+        # (4.5e-13); dop853's stops within 5 rtol (main: 3.7e-11 at 1e-12).
+        # dopri5's stops: the global error of 2,500 steps (not asserted).
+        assert r["W_error_max_by_status"]["exited"] <= 1e-12, r
+        if r["method"] == "dop853":
+            assert r["W_error_max_by_status"]["stuck"] <= 5 * r["rtol"], r
