@@ -464,29 +464,28 @@ def _step_to_event(lanes, i, kind, h_event, h_end, settings, shared):
     trajectories that end within their first steps (small W) had relative W
     errors up to 300 times the median at rtol 1e-12.  A step of the pair
     to the event is as accurate as any committed step.  The event's time
-    itself matters little: at a reversal v = 0 and the friction power
-    vanishes; at an exit the Newton step puts x on the end to the pair's
-    accuracy.  A timeout steps to t_max exactly."""
+    itself matters little: at a reversal v = 0, so x and W change only to
+    second order in the time's error (no Newton step); at an exit the Newton
+    step puts x on the end to the pair's accuracy.  A timeout steps to t_max
+    exactly.  (A lift-off keeps the dense output: n, its event function,
+    is no state the step's end could be corrected on cheaply.)"""
     x = lanes[X * LANES + i]
     v = lanes[V * LANES + i]
     d = lanes[D * LANES + i]
     h = h_end if kind == EV_TIMEOUT else h_event
     for attempt_ in range(2):
-        (x1, v1, dw, dk, a7, _, _, _, _, ew, _, _, _, _, _, _, _, dwd, _, _) = event_step(
+        (x1, v1, dw, dk, _, _, _, _, _, _, _, _, _, _, _, _, _, dwd, _, _) = event_step(
             x, v, lanes[FP * LANES + i], lanes[FPP * LANES + i], lanes[A1 * LANES + i],
             lanes[Q * LANES + i], d, h, lanes[G * LANES + i], lanes[P0 * LANES + i],
             lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,
             lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
-        if attempt_ == 1 or kind == EV_TIMEOUT:
+        if attempt_ == 1 or kind == EV_TIMEOUT or kind == EV_REVERSAL:
             break
-        # Newton on the event function at the first step's end (its rate
-        # there: v for x, a for v); a correction beyond a quarter of the step
-        # means the located event is not trusted: keep the first step
-        if kind == EV_REVERSAL:
-            correction = -v1 / a7 if a7 != 0.0 else 0.0
-        else:
-            target = settings[SET_XHI] if kind == EV_EXIT_HI else settings[SET_XLO]
-            correction = (target - x1) / v1 if v1 != 0.0 else 0.0
+        # an exit: Newton on x at the first step's end (its rate there: v); a
+        # correction beyond a quarter of the step means the located event is
+        # not trusted: keep the first step
+        target = settings[SET_XHI] if kind == EV_EXIT_HI else settings[SET_XLO]
+        correction = (target - x1) / v1 if v1 != 0.0 else 0.0
         h_new = h + correction
         if not (abs(correction) <= 0.25 * h and 0.0 < h_new <= h_end):
             break

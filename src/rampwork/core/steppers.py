@@ -321,6 +321,9 @@ class AdaptivePair(NamedTuple):
     linear_in_h = False
 
 
+#: DOP853's estimate follows its error further out (8th order): on
+#: throughput.py's bowl a bound of 2.0 takes its worst W error at rtol 1e-3
+#: from 0.14 to 1.4e-3 and leaves its steps at rtol <= 1e-6 within 0.3 %
 DOP853_SWING = 2.0
 
 #: adaptive method name -> its pair
