@@ -339,8 +339,10 @@ def test_a_loose_tolerance_swings_to_rest_instead_of_diverging(method):
     assert row["status"] == STUCK, row
     assert abs(row["x_end"]) <= mu + 1e-12 and row["v_end"] == 0.0
     assert row["n_reversals"] >= 10
-    if method == "dop853":  # dopri5: see the next test
-        assert row["W_friction"] == pytest.approx(_rest_work(x0, v0, row["x_end"]), rel=1e-2)
+    # until issue 19's swing bound (adaptive.py) dopri5 took steps of h omega =
+    # 1.2 here, whose error estimate (0.64) was 28 times below their error:
+    # W_friction came out 26 % above the energy the block had to lose
+    assert row["W_friction"] == pytest.approx(_rest_work(x0, v0, row["x_end"]), rel=1e-2)
 
 
 def _rest_work(x0, v0, x_end):
@@ -348,15 +350,6 @@ def _rest_work(x0, v0, x_end):
     return G * x0**2 / 2 + v0**2 * (1 + x0**2) / 2 - G * x_end**2 / 2
 
 
-@pytest.mark.xfail(strict=True, reason="issue 19 (the loose end of the accuracy range): dopri5 at "
-                   "rtol = atol = 1e-3 accumulates W_friction 26 % above the energy it can take")
-def test_a_loose_tolerance_keeps_the_energy_balance_of_a_block_at_rest():
-    mu, x0, v0 = 0.02, -0.95, -0.5384615384615383
-    ramp = rw.Ramp.create("quadratic", curvature=1.0, domain=(-1.0, 1.0))
-    scene = rw.Scene(ramp=ramp, friction=rw.Friction(mu), x0=x0, v0=v0, t_max=60.0, g=G,
-                     integrator=rw.Integrator("dopri5", rtol=1e-3))
-    row = results(rw.simulate(scene))[0]
-    assert row["W_friction"] == pytest.approx(_rest_work(x0, v0, row["x_end"]), rel=1e-2)
 
 STEP_SCENES = {
     "bowl": rw.Scene(ramp=BOWL, friction=rw.Friction(0.1, 0.2), x0=0.7, t_max=30.0),

@@ -1116,9 +1116,13 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     if variant.adaptive:
         pair = ADAPTIVE_STEPPERS[variant.method]
         constants["PI_ALPHA"], constants["PI_BETA"] = pair.pi_gains
+        constants["SWING_LIMIT2"] = pair.swing_limit ** 2
         for key, template in pair.helpers:
             add(key, template, **no_refcount)
         add("step", pair.step, **no_refcount)
+        # a copy of its own for the scalar step to an event: a second call
+        # site of `step` keeps LLVM from inlining it into the lane loop
+        add("event_step", pair.step, **no_refcount)
         add("dense_output", pair.dense, **no_refcount)
         add("dense_point", pair.dense_point, **no_refcount)
         constants["error_norm2"] = pair.error_norm2  # jitted already: no scene constants
@@ -1130,6 +1134,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
             ("start_adaptive", adaptive_parts._start_adaptive),
             ("dense_value", adaptive_parts._dense_value),
             ("locate_dense", adaptive_parts._locate_dense),
+            ("step_to_event", adaptive_parts._step_to_event),
         )
     else:
         add("_with_drag", steppers._with_drag, **no_refcount)

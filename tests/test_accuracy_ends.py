@@ -1,0 +1,136 @@
+"""Issue 19, item 4: the adaptive pairs at both ends of the accuracy range, on
+throughput.py's bowl (y = x^2 / 2 on (-1, 1), g = 9.81) and starts of its
+27^3 grid (benchmarks/accuracy_ends.py measures the whole grid).
+
+Expected values: rampwork.reference (scipy DOP853 with events at rtol
+2.5e-14, atol 1e-16, whose own W differs by <= 1.4e-12 relative from a run at
+rtol 1e-13 on these starts) and the energy balance of a block at rest,
+W_f = E0 - g f(x_end), which does not use the integrated work.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+import rampwork as rw
+from rampwork.core.status import EXITED, STUCK
+
+G = 9.81
+RAMP = rw.Ramp.create("quadratic", curvature=1.0, domain=(-1.0, 1.0))
+GRID_X0 = [-0.95 + k * 1.9 / 26 for k in range(27)]
+GRID_V0 = [-7.0 + k * 14.0 / 26 for k in range(27)]
+GRID_MU = [0.02 + k * 0.48 / 26 for k in range(27)]
+PAIRS = ("dopri5", "dop853")
+
+#: trajectories that end within their first steps, with small W (issue 19's
+#: tight-end worst cases): until the step to the event (adaptive.py
+#: _step_to_event) x, v and W at the event came from the dense output, whose
+#: error is of the tolerance's size, not the step's: W errors 60-300 times
+#: the median at rtol 1e-12
+SHORT = {
+    "exit after 3-9 steps, W = 0.012 J/kg": (GRID_X0[0], GRID_V0[10], GRID_MU[0], EXITED),
+    "stuck after 4-27 steps, W = 0.099 J/kg": (GRID_X0[17], GRID_V0[14], GRID_MU[26], STUCK),
+    "stuck after 4-27 steps, W = 0.084 J/kg": (GRID_X0[18], GRID_V0[14], GRID_MU[20], STUCK),
+}
+#: issue 19's target: max W error within 10x the median, the median at rtol
+#: 1e-12 being 1e-13 (dop853) to 3e-13 (dopri5) on the grid
+TIGHT_W_ERROR = {1e-12: 3e-12, 1e-13: 5e-13}
+
+
+def simulate_one(method, rtol, x0, v0, mu, atol=None):
+    scene = rw.Scene(ramp=RAMP, friction=rw.Friction(mu), x0=x0, v0=v0, t_max=60.0, g=G,
+                     integrator=rw.Integrator(method, rtol=rtol, atol=rtol if atol is None else atol,
+                                              closed_form=False))
+    ds = rw.simulate(scene)
+    return scene, {k: ds[k].values.item() for k in ("status", "x_end", "W_friction", "steps")}
+
+
+def rest_work(x0, v0, x_end):
+    """W_f of a block (unit mass) from (x0, v0) to rest at x_end on y = x^2 / 2."""
+    return G * x0**2 / 2 + v0**2 * (1 + x0**2) / 2 - G * x_end**2 / 2
+
+
+@pytest.mark.parametrize("rtol", sorted(TIGHT_W_ERROR))
+@pytest.mark.parametrize("method", PAIRS)
+@pytest.mark.parametrize("name", list(SHORT))
+def test_tight_end_short_trajectories_keep_the_relative_W_error(name, method, rtol, reference):
+    x0, v0, mu, status = SHORT[name]
+    scene, got = simulate_one(method, rtol, x0, v0, mu)
+    ref = reference.reference_trajectory(scene, rtol=2.5e-14, atol=1e-16)
+    assert ref["status"] == status and got["status"] == status, (got, ref["status"])
+    error = abs(got["W_friction"] - ref["W_friction"]) / ref["W_friction"]
+    assert error <= TIGHT_W_ERROR[rtol], (name, got, ref["W_friction"], error)
+    if status == STUCK:  # and the energy balance, with the run's own x_end
+        balance = rest_work(x0, v0, got["x_end"])
+        assert abs(got["W_friction"] - balance) <= TIGHT_W_ERROR[rtol] * balance
+
+
+#: loose tolerances on small mu: swings of a second and steps as long as half
+#: of one.  Until the swing bound (adaptive.py) dopri5 at 1e-3 accepted steps
+#: of h omega = 1.2 whose error estimate was 28 times too small (W 26 % above
+#: the energy balance on the first case); the second is the grid's grazing
+#: start (the block turns 44 um before the domain's end: reference stuck,
+#: dopri5 exited at 1e-3 and 1e-4 until the swing bound; a margin this thin
+#: is below a 1e-3 tolerance, so this case is a canary, not a guarantee);
+#: the third issue 19's own (rtol 1e-3, atol 1e-6).
+LOOSE = {
+    "swings to rest": (GRID_X0[0], GRID_V0[12], GRID_MU[0]),
+    "grazing turn 44 um before the end": (GRID_X0[0], GRID_V0[15], GRID_MU[0]),
+    "issue 19's grazing start": (-0.6577, 2.154, 0.02),
+}
+LOOSE_SETTINGS = [(1e-3, 1e-3), (1e-4, 1e-4), (1e-3, 1e-6)]
+
+
+def loose_params():
+    for name in LOOSE:
+        for method in PAIRS:
+            for rtol, atol in LOOSE_SETTINGS:
+                yield pytest.param(name, method, rtol, atol)
+
+
+@pytest.mark.parametrize("name, method, rtol, atol", list(loose_params()))
+def test_loose_end_comes_to_rest_with_the_energy_balance(name, method, rtol, atol, reference):
+    x0, v0, mu = LOOSE[name]
+    scene, got = simulate_one(method, rtol, x0, v0, mu, atol)
+    ref = reference.reference_trajectory(scene, rtol=2.5e-14, atol=1e-16)
+    assert ref["status"] == STUCK
+    assert got["status"] == STUCK, (got, ref)
+    assert abs(got["x_end"]) <= mu + 1e-12
+    balance = rest_work(x0, v0, got["x_end"])
+    assert got["W_friction"] == pytest.approx(balance, rel=1e-2), got
+    assert got["W_friction"] == pytest.approx(ref["W_friction"], rel=1e-2), (got, ref["W_friction"])
+
+
+def test_accuracy_ends_benchmark_runs_and_counts_no_wrong_outcome(tmp_path):
+    """benchmarks/accuracy_ends.py --quick end to end: every pair and tolerance
+    reported, no wrong outcome on its 1,000 starts, median W error within
+    rtol, maximum within 10 rtol at the loose end (main: 140 rtol at 1e-3),
+    and at the tight end as below."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root / "src"))
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "accuracy_ends.py"), "--quick",
+                           "--out", str(tmp_path)], cwd=root, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    results = json.loads((tmp_path / "accuracy_ends.json").read_text())["results"]
+    assert sorted((r["method"], r["rtol"]) for r in results) == sorted(
+        (m, r) for m in PAIRS for r in (1e-3, 1e-4, 1e-12, 1e-13))
+    for r in results:
+        assert r["wrong"] == 0, r
+        assert r["W_error_median"] <= r["rtol"], r
+        if r["rtol"] >= 1e-4:
+            assert r["W_error_max"] <= 10 * r["rtol"], r
+            continue
+        # tight end: exits (short trajectories; main: 2e-11 on the full grid)
+        # within 1e-12, which holds the scipy reference's own error there
+        # (4.5e-13); dop853's stops within 5 rtol (main: 3.7e-11 at 1e-12).
+        # dopri5's stops: the global error of 2,500 steps (not asserted).
+        assert r["W_error_max_by_status"]["exited"] <= 1e-12, r
+        if r["method"] == "dop853":
+            assert r["W_error_max_by_status"]["stuck"] <= 5 * r["rtol"], r
