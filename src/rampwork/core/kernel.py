@@ -34,6 +34,7 @@ import numpy as np
 from . import status as st
 from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
 from .jit import flip_sign, fma, specialise
+from numba.cpython.unsafe.numbers import trailing_zeros
 from . import straight
 from .variant import KernelVariant
 from . import general
@@ -894,52 +895,55 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
     and stop lanes past the speed bound.  Returns how many lanes finished
     (now empty).
 
-    A vectorised pass first counts the lanes that need attention, so that a
-    scan with nothing to do costs a few cycles per lane.  For fixed steps it
-    also books the block's steps, STOP of them, to every lane (the vector
-    loop does not count them); a lane that stopped short of the block (an
-    event, or its t_max step limit) is pending, at the start of that step."""
-    flagged = 0
-    for i in range(n_active):
-        v = lanes[V * LANES + i]
-        if ADAPTIVE:
-            pending = lanes[PENDING * LANES + i] > 0.0
-        else:
-            taken = lanes[STOP * LANES + i]
-            pending = taken < n_substeps
-            lanes[STEPS * LANES + i] += taken
-        attention = (lanes[TRAJ * LANES + i] >= 0.0) & (
-            pending | (v * v > lanes[VLIM2 * LANES + i]))
-        flagged += 1 if attention else 0
-    if flagged == 0:
-        return 0
+    A vectorised pass over each word of up to 64 lanes books what every lane
+    needs booked and sets one bit per lane that needs attention; the scalar
+    work then visits only those lanes, found by their bits (on an event-rich
+    sweep one or two of 64 lanes in most blocks: a scalar visit of every
+    lane would cost about as much as the block's vector steps).  For fixed
+    steps it books the block's steps, STOP of them, to every lane (the
+    vector loop does not count them); a lane that stopped short of the
+    block (an event, or its t_max step limit) is pending, at the start of
+    that step.  A lane that stepped in the block has made progress: its
+    event cascade count restarts."""
     freed = 0
-    for i in range(n_active):
-        if lanes[TRAJ * LANES + i] < 0.0:
-            continue
-        if ADAPTIVE:
-            clean = lanes[PENDING * LANES + i] == 0.0
-            if lanes[STEPS * LANES + i] > lanes[BLOCK_STEPS * LANES + i]:
-                lanes[CASCADE * LANES + i] = 0.0
-        else:
-            taken = lanes[STOP * LANES + i]
-            clean = taken == n_substeps
-            if taken > 0.0:
-                lanes[CASCADE * LANES + i] = 0.0
-            if CARRY_SLOPE and not clean:
-                # the vector loop carried f', f'' past the step that stopped
-                # the lane: the same function at the same x, the same values
-                refresh_slope(lanes, i, shared)
-        if clean:
+    for word in range((LANES + 63) // 64):  # a constant count: one word for 64 lanes
+        base = 64 * word
+        bits = np.uint64(0)
+        for k in range(min(64, n_active - base)):
+            i = base + k
             v = lanes[V * LANES + i]
-            if v * v <= lanes[VLIM2 * LANES + i]:
-                continue
-            # past the speed bound: the step is far too large
-            rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
-            finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
-            freed += 1
-        elif not resolve_lane(lanes, i, settings, outputs, shared):
-            freed += 1
+            if ADAPTIVE:
+                pending = lanes[PENDING * LANES + i] > 0.0
+                stepped = lanes[STEPS * LANES + i] > lanes[BLOCK_STEPS * LANES + i]
+            else:
+                taken = lanes[STOP * LANES + i]
+                pending = taken < n_substeps
+                lanes[STEPS * LANES + i] += taken
+                stepped = taken > 0.0
+            # a product, not a select against the loaded value (a masked store)
+            lanes[CASCADE * LANES + i] *= 0.0 if stepped else 1.0
+            attention = (lanes[TRAJ * LANES + i] >= 0.0) & (
+                pending | (v * v > lanes[VLIM2 * LANES + i]))
+            bits |= np.uint64(1 if attention else 0) << np.uint64(k)
+        while bits != 0:
+            k = np.int64(trailing_zeros(bits))
+            bits &= bits - np.uint64(1)
+            i = base + k
+            if ADAPTIVE:
+                clean = lanes[PENDING * LANES + i] == 0.0
+            else:
+                clean = lanes[STOP * LANES + i] == n_substeps
+                if CARRY_SLOPE and not clean:
+                    # the vector loop carried f', f'' past the step that stopped
+                    # the lane: the same function at the same x, the same values
+                    refresh_slope(lanes, i, shared)
+            if clean:
+                # past the speed bound: the step is far too large
+                rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
+                finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
+                freed += 1
+            elif not resolve_lane(lanes, i, settings, outputs, shared):
+                freed += 1
     return freed
 
 
