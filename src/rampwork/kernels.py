@@ -109,22 +109,19 @@ def get_kernel(variant, plan: RunPlan):
         return _KERNELS[variant], 0.0
     started = time.perf_counter()
     if variant.runtime:
-        height, slope_curvature, near = _general_switches()
+        height, slope_curvature = _general_switches()
         cache = True
     else:
         spec = plan.scene.ramp.spec
         height, slope_curvature, cache = spec.height, spec.slope_curvature, spec.cacheable
-        near = spec.slope_curvature_near
-    kernels = K.build_kernel(variant, height, slope_curvature, cache=cache,
-                             ramp_slope_curvature_near_fn=near)
+    kernels = K.build_kernel(variant, height, slope_curvature, cache=cache)
     _KERNELS[variant] = kernels
     return kernels, time.perf_counter() - started
 
 
 @functools.cache
 def _general_switches():
-    return general.build_switches((name, FAMILIES[name].height, FAMILIES[name].slope_curvature,
-                                   FAMILIES[name].slope_curvature_near)
+    return general.build_switches((name, FAMILIES[name].height, FAMILIES[name].slope_curvature)
                                   for name in GENERAL_FAMILIES)
 
 

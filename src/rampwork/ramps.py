@@ -126,9 +126,6 @@ class RampFamily:
     cheap_slope = False
     #: f'' is the same all along the ramp (no curvature integral needed)
     constant_curvature = False
-    #: f', f'' at a stage point from those at the step's start, or None
-    #: (``core.steppers.ramp_slope_curvature_near``)
-    slope_curvature_near = None
 
     def __init__(self, name: str, description: str, parameters: tuple[ParameterSpec, ...],
                  height, slope_curvature, *, is_straight: bool = False,
@@ -302,8 +299,6 @@ class _Cycloid(RampFamily):
 
 
 class _Sine(RampFamily):
-    slope_curvature_near = staticmethod(core.sine_slope_curvature_near)
-
     def _check_family(self, arrays, lo, hi, shared):
         # the core's sin/cos (core.vmath) are accurate to 1 ulp for arguments
         # within +-VALID_ARGUMENT; the argument k*x + phase is linear in x, so

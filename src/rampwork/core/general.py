@@ -28,6 +28,7 @@ import types
 import numpy as np
 
 from .jit import specialise
+from .ramps import SLOPE_CURVATURE_NEAR
 
 #: the choices a general kernel reads at run time, in the order of their
 #: slots (``settings[SET_RUNTIME + k]``, copied into the lane array)
@@ -136,11 +137,12 @@ def _switch_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, drag_b, 
 def build_switches(families, *, cache: bool = True):
     """``(height, slope_curvature, slope_curvature_near)`` switching by
     ``shared[0]`` between ``families``, a sequence of ``(key, height,
-    slope_curvature, slope_curvature_near or None)`` (family k has id k; at
-    most :data:`MAX_FAMILIES`).  ``slope_curvature_near`` is RK4's stage
-    evaluation (``steppers.ramp_slope_curvature_near``): the family's own
-    where it has one, so that the general kernel rounds as the specialised
-    one, else its f', f'' evaluated afresh."""
+    slope_curvature)`` (family k has id k; at most :data:`MAX_FAMILIES`).
+    ``slope_curvature_near`` is RK4's stage evaluation
+    (``steppers.ramp_slope_curvature_near``): the family's own where it has
+    one (``ramps.SLOPE_CURVATURE_NEAR``), so that the general kernel rounds
+    as the specialised one, else its f', f'' evaluated afresh; it is
+    registered as the slope switch's."""
     families = tuple(families)
     if not 0 < len(families) <= MAX_FAMILIES:
         raise ValueError(f"a general kernel switches between 1 to {MAX_FAMILIES} families, "
@@ -155,13 +157,13 @@ def build_switches(families, *, cache: bool = True):
         switches.append(specialise(_switch_family, f"switch_{label}_{name}", constants,
                                    cache=cache, **internal))
     near = {}
-    for k, (key, _, slope_curvature, *rest) in enumerate(padded):
-        own = rest[0] if rest else None
-        near[f"FAMILY_{k}"] = own if own is not None else specialise(
+    for k, (key, _, slope_curvature) in enumerate(padded):
+        near[f"FAMILY_{k}"] = SLOPE_CURVATURE_NEAR.get(slope_curvature) or specialise(
             _near_afresh, f"near_afresh_{key}", {"SLOPE_CURVATURE": slope_curvature},
             cache=cache, **internal)
-    switches.append(specialise(_switch_near, f"switch_near_{name}",
-                               {"SHARED_HEADER": SHARED_HEADER, **near}, cache=cache, **internal))
+    SLOPE_CURVATURE_NEAR[switches[1]] = specialise(
+        _switch_near, f"switch_near_{name}", {"SHARED_HEADER": SHARED_HEADER, **near},
+        cache=cache, **internal)
     return tuple(switches)
 
 

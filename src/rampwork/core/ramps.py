@@ -355,6 +355,14 @@ def sine_slope_curvature_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     return fp_near, fpp_near
 
 
+#: a family's f', f'' function -> its RK4 stage evaluation from the step
+#: start's f', f'' (``steppers.ramp_slope_curvature_near``), for the families
+#: that have one.  Keyed by the function so that every kernel built on it gets
+#: it (the kernels' cache names derive from the family, not from the caller);
+#: ``general.build_switches`` adds its switch.
+SLOPE_CURVATURE_NEAR = {sine_slope_curvature: sine_slope_curvature_near}
+
+
 # ---------------------------------------------------------------------------
 # natural cubic spline, data in ``shared`` (layout in the module docstring)
 
