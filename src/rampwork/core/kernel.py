@@ -1066,8 +1066,8 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     uniquely); ``cache=False`` for functions that cannot be found again
     (user callables).  RK4 takes f', f'' at its stage points from those at
     the step's start where the family has such a function
-    (``ramps.SLOPE_CURVATURE_NEAR``, ``steppers.STAGE_FROM_START``).  A closed-form variant is built by
-    ``straight.build_closed_form``.  Returns ``(run_batch, trace_one)``:
+    (``ramps.SLOPE_CURVATURE_NEAR``, ``steppers.STAGE_FROM_START``).  A
+    closed-form variant is built by ``straight.build_closed_form``.  Returns ``(run_batch, trace_one)``:
     ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
     ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n), tiles spread
     over threads; ``trace_one(j, inputs, settings, shared, every, trace)``
