@@ -28,6 +28,7 @@ import types
 import numpy as np
 
 from .jit import specialise
+from .ramps import SLOPE_CURVATURE_NEAR
 
 #: the choices a general kernel reads at run time, in the order of their
 #: slots (``settings[SET_RUNTIME + k]``, copied into the lane array)
@@ -134,15 +135,20 @@ def _switch_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, drag_b, 
 
 
 def build_switches(families, *, cache: bool = True):
-    """``(height, slope_curvature)`` switching by ``shared[0]`` between
-    ``families``, a sequence of ``(key, height, slope_curvature)`` (family k
-    has id k; at most :data:`MAX_FAMILIES`)."""
+    """``(height, slope_curvature, slope_curvature_near)`` switching by
+    ``shared[0]`` between ``families``, a sequence of ``(key, height,
+    slope_curvature)`` (family k has id k; at most :data:`MAX_FAMILIES`).
+    ``slope_curvature_near`` is RK4's stage evaluation
+    (``steppers.ramp_slope_curvature_near``): the family's own where it has
+    one (``ramps.SLOPE_CURVATURE_NEAR``), so that the general kernel rounds
+    as the specialised one, else its f', f'' evaluated afresh; it is
+    registered as the slope switch's."""
     families = tuple(families)
     if not 0 < len(families) <= MAX_FAMILIES:
         raise ValueError(f"a general kernel switches between 1 to {MAX_FAMILIES} families, "
                          f"got {len(families)}")
     padded = families + families[:1] * (MAX_FAMILIES - len(families))
-    name = "_".join(key for key, _, _ in families)
+    name = "_".join(key for key, *_ in families)
     internal = {"internal": True, "_nrt": False}
     switches = []
     for part, label in ((1, "height"), (2, "slope_curvature")):
@@ -150,7 +156,43 @@ def build_switches(families, *, cache: bool = True):
                      **{f"FAMILY_{k}": family[part] for k, family in enumerate(padded)}}
         switches.append(specialise(_switch_family, f"switch_{label}_{name}", constants,
                                    cache=cache, **internal))
+    near = {}
+    for k, (key, _, slope_curvature) in enumerate(padded):
+        near[f"FAMILY_{k}"] = SLOPE_CURVATURE_NEAR.get(slope_curvature) or specialise(
+            _near_afresh, f"near_afresh_{key}", {"SLOPE_CURVATURE": slope_curvature},
+            cache=cache, **internal)
+    SLOPE_CURVATURE_NEAR[switches[1]] = specialise(
+        _switch_near, f"switch_near_{name}", {"SHARED_HEADER": SHARED_HEADER, **near},
+        cache=cache, **internal)
     return tuple(switches)
+
+
+SLOPE_CURVATURE = None  # bound by build_switches
+
+
+def _near_afresh(x, dx, fp, fpp, p0, p1, p2, p3, data):
+    """A family's f', f'' at a stage point, evaluated afresh."""
+    return SLOPE_CURVATURE(x, p0, p1, p2, p3, data)
+
+
+def _switch_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    family = shared[0]
+    data = shared[SHARED_HEADER:]
+    if family == 0.0:
+        return FAMILY_0(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    if family == 1.0:
+        return FAMILY_1(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    if family == 2.0:
+        return FAMILY_2(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    if family == 3.0:
+        return FAMILY_3(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    if family == 4.0:
+        return FAMILY_4(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    if family == 5.0:
+        return FAMILY_5(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    if family == 6.0:
+        return FAMILY_6(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    return FAMILY_7(x, dx, fp, fpp, p0, p1, p2, p3, data)
 
 
 def shared_header(family_id: int, method_id: int) -> np.ndarray:

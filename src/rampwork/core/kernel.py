@@ -44,6 +44,7 @@ from .physics import (acceleration, acceleration_frictionless, departure_directi
 from . import adaptive as adaptive_parts
 from . import parameters
 from . import steppers
+from .ramps import SLOPE_CURVATURE_NEAR
 from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 
 # bound per scene by build_kernel (compile-time constants)
@@ -1067,8 +1068,10 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     compile-time choice; ``ramp_height_fn`` and ``ramp_slope_curvature_fn``
     are its family's jitted functions (``variant.family`` names them
     uniquely); ``cache=False`` for functions that cannot be found again
-    (user callables).  A closed-form variant is built by
-    ``straight.build_closed_form``.  Returns ``(run_batch, trace_one)``:
+    (user callables).  RK4 takes f', f'' at its stage points from those at
+    the step's start where the family has such a function
+    (``ramps.SLOPE_CURVATURE_NEAR``, ``steppers.STAGE_FROM_START``).  A
+    closed-form variant is built by ``straight.build_closed_form``.  Returns ``(run_batch, trace_one)``:
     ``run_batch(inputs, settings, outputs, shared, tile_size)`` fills
     ``outputs`` (N_OUTPUTS, n) from ``inputs`` (N_INPUTS, n), tiles spread
     over threads; ``trace_one(j, inputs, settings, shared, every, trace)``
@@ -1087,6 +1090,9 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         **variant.constants(),
         "ramp_height": ramp_height_fn,
         "ramp_slope_curvature": ramp_slope_curvature_fn,
+        "STAGE_FROM_START": ramp_slope_curvature_fn in SLOPE_CURVATURE_NEAR,
+        "ramp_slope_curvature_near": SLOPE_CURVATURE_NEAR.get(ramp_slope_curvature_fn,
+                                                              steppers.no_stage_shortcut),
         # the lane array: fixed-step kernels leave out the adaptive bank B
         # (a smaller block stays in the L1 cache)
         "N_LANE_FIELDS": n_lane_fields,

@@ -33,6 +33,12 @@ from .jit import fma, jit
 from .physics import acceleration, drag_rate, normal_term
 
 ramp_slope_curvature = None  # bound per scene by jit.specialise
+# A family may offer f', f'' at a stage point x0 + dx from those at the step's
+# start x0 (cheaper than evaluating them afresh: the sine's angle sum):
+# ``ramp_slope_curvature_near(x, dx, fp0, fpp0, p0, p1, p2, p3, shared)``,
+# x = x0 + dx rounded.  RK4 uses it where STAGE_FROM_START (bound per scene).
+STAGE_FROM_START = False
+ramp_slope_curvature_near = None
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # bound per scene by jit.specialise
 FRICTION = True  # False: mu_k = 0 everywhere; no friction work (and `acceleration` frictionless)
 
@@ -75,7 +81,10 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
 
     x2 = fma(half, v, x)
     v2 = fma(half, a1, v)
-    fp2, fpp2 = ramp_slope_curvature(x2, p0, p1, p2, p3, shared)
+    if STAGE_FROM_START:
+        fp2, fpp2 = ramp_slope_curvature_near(x2, half * v, fp, fpp, p0, p1, p2, p3, shared)
+    else:
+        fp2, fpp2 = ramp_slope_curvature(x2, p0, p1, p2, p3, shared)
     n2 = normal_term(v2, fpp2, g)
     a2 = acceleration(n2, fp2, q)
     if DRAG:
@@ -83,7 +92,10 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
 
     x3 = fma(half, v2, x)
     v3 = fma(half, a2, v)
-    fp3, fpp3 = ramp_slope_curvature(x3, p0, p1, p2, p3, shared)
+    if STAGE_FROM_START:
+        fp3, fpp3 = ramp_slope_curvature_near(x3, half * v2, fp, fpp, p0, p1, p2, p3, shared)
+    else:
+        fp3, fpp3 = ramp_slope_curvature(x3, p0, p1, p2, p3, shared)
     n3 = normal_term(v3, fpp3, g)
     a3 = acceleration(n3, fp3, q)
     if DRAG:
@@ -91,7 +103,10 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
 
     x4 = fma(h, v3, x)
     v4 = fma(h, a3, v)
-    fp4, fpp4 = ramp_slope_curvature(x4, p0, p1, p2, p3, shared)
+    if STAGE_FROM_START:
+        fp4, fpp4 = ramp_slope_curvature_near(x4, h * v3, fp, fpp, p0, p1, p2, p3, shared)
+    else:
+        fp4, fpp4 = ramp_slope_curvature(x4, p0, p1, p2, p3, shared)
     n4 = normal_term(v4, fpp4, g)
     a4 = acceleration(n4, fp4, q)
     if DRAG:
@@ -106,6 +121,13 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
     if DRAG:
         drag = sixth * (pd1 + 2.0 * (pd2 + pd3) + pd4)
     return x_new, v_new, work, curvature, drag
+
+
+@jit
+def no_stage_shortcut(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    """The binding of ``ramp_slope_curvature_near`` for families without one
+    (never called: STAGE_FROM_START is False)."""
+    return fp, fpp
 
 
 def _with_drag(a, v, fp, b, c, d):
