@@ -158,20 +158,19 @@ def main(argv=None):
     long_double = np.finfo(np.longdouble).nmant >= 63
     reference = "long double (sinl/cosl)" if long_double else "numpy float64"
 
+    def elementwise(function):
+        """A jitted loop out[i] = function(x[i]) (the lane loop shape rampwork's
+        kernels give the functions: one call per element, inlined)."""
+        @jit(cache=False)
+        def loop(x, out):
+            for i in range(x.size):
+                out[i] = function(x[i])
+        return loop
+
     @jit(cache=False)
     def sincos_loop(x, s, c):
         for i in range(x.size):
             s[i], c[i] = vmath.sincos(x[i])
-
-    @jit(cache=False)
-    def sin_loop(x, s):
-        for i in range(x.size):
-            s[i] = vmath.sin(x[i])
-
-    @jit(cache=False)
-    def libm_sin_loop(x, s):
-        for i in range(x.size):
-            s[i] = math.sin(x[i])
 
     @jit(cache=False)
     def libm_sincos_loop(x, s, c):
@@ -180,29 +179,17 @@ def main(argv=None):
             c[i] = math.cos(x[i])
 
     @jit(cache=False)
-    def cbrt_loop(x, s):
-        for i in range(x.size):
-            s[i] = vmath.cbrt(x[i])
+    def libm_sin(a):
+        return math.sin(a)
 
     @jit(cache=False)
-    def inverse_cbrt_loop(x, s):
-        for i in range(x.size):
-            s[i] = vmath.inverse_cbrt(x[i])
+    def libm_cbrt(a):
+        return a ** (1.0 / 3.0)
 
-    @jit(cache=False)
-    def sin_small_loop(x, s):
-        for i in range(x.size):
-            s[i] = vmath.sin_small(x[i])
-
-    @jit(cache=False)
-    def cos_small_loop(x, s):
-        for i in range(x.size):
-            s[i] = vmath.cos_small(x[i])
-
-    @jit(cache=False)
-    def libm_cbrt_loop(x, s):
-        for i in range(x.size):
-            s[i] = x[i] ** (1.0 / 3.0)
+    sin_loop, libm_sin_loop = elementwise(vmath.sin), elementwise(libm_sin)
+    cbrt_loop, inverse_cbrt_loop = elementwise(vmath.cbrt), elementwise(vmath.inverse_cbrt)
+    sin_small_loop, cos_small_loop = elementwise(vmath.sin_small), elementwise(vmath.cos_small)
+    libm_cbrt_loop = elementwise(libm_cbrt)
 
     rng = np.random.default_rng(19)
     rows, table = [], []

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 
 from . import vmath
-from .jit import float_bits, fma, jit
+from .jit import fma, jit
 
 # ---------------------------------------------------------------------------
 # straight: y = height + slope * x            p0 = slope, p1 = height
@@ -320,32 +320,13 @@ def sine_slope_curvature_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     With u = f'(x0) - p0 = A k cos(theta0), f''(x0) = -A k^2 sin(theta0) and
     y = k dx:  f'(x) = f'(x0) + u (cos y - 1) + f''(x0) sin(y)/k  and
     f''(x) = f''(x0) (1 + (cos y - 1)) - k u (k sin(y)/k).  sin and cos - 1 of
-    y come from the fdlibm kernels' polynomials (vmath) after a short
-    Cody-Waite reduction y = n pi/2 + r (two terms of pi/2: |y| is small, so
-    no double-double is needed).  The division f''(x0)/k is the same in
+    y come from vmath.sin_cos_minus_one_near (a short reduction, then the
+    fdlibm kernels' polynomials).  The division f''(x0)/k is the same in
     every stage of a step (the compiler computes it once).  Error
-    (tests/test_vmath.py): a few ulp of |p0| + |A k| (f') and of
+    (tests/test_sine_stages.py): a few ulp of |p0| + |A k| (f') and of
     A k^2 + k |sin y| (|p0| + |A k|) (f'': u carries the rounding of f'(x0)),
     plus those of f'(x0), f''(x0)."""
-    y = p2 * dx
-    shifted = fma(y, vmath.TWO_OVER_PI, vmath.SHIFTER)
-    quadrant = float_bits(shifted) & 3
-    n = shifted - vmath.SHIFTER
-    r = fma(-n, vmath.P2, fma(-n, vmath.P1, y))
-    z = r * r
-    # sin(r) = r (1 + S1 z + ... + S6 z^6); cos r - 1 = -z/2 + z^2 (C1 + ... + C6 z^5)
-    sin_poly = fma(z, fma(z, fma(z, fma(z, fma(z, vmath.S6, vmath.S5), vmath.S4), vmath.S3),
-                          vmath.S2), vmath.S1)
-    sin_r = fma(z * r, sin_poly, r)
-    cos_r_m1 = fma(z * z, fma(z, fma(z, fma(z, fma(z, fma(z, vmath.C6, vmath.C5), vmath.C4),
-                                                vmath.C3), vmath.C2), vmath.C1), -0.5 * z)
-    # the quadrant: (sin y, cos y - 1) = (s, c-1), (c, -s-1), (-s, -c-1), (-c, s-1)
-    odd = (quadrant & 1) != 0
-    high = (quadrant & 2) != 0
-    sin_abs = (1.0 + cos_r_m1) if odd else sin_r
-    sin_y = -sin_abs if high else sin_abs
-    cos_abs_m1 = (sin_r - 1.0) if odd else cos_r_m1
-    cos_y_m1 = (-2.0 - cos_abs_m1) if (quadrant == 2) | (quadrant == 1) else cos_abs_m1
+    sin_y, cos_y_m1 = vmath.sin_cos_minus_one_near(p2 * dx)
     # f''(x0)/k = -A k sin(theta0); where k = 0, f'' = 0 and y = 0 (divide by
     # 1 instead: a select on the divisor keeps the division unconditional)
     fpp_over_k = fpp / (p2 if p2 != 0.0 else 1.0)

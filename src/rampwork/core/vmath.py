@@ -1,4 +1,5 @@
-"""Elementary functions a lane loop can vectorise: ``sin``, ``cos``, ``sincos``, ``cbrt``, ``inverse_cbrt``.
+"""Elementary functions a lane loop can vectorise: ``sin``, ``cos``, ``sincos``, ``cbrt``, ``inverse_cbrt``,
+and the small-argument pieces ``sin_small``, ``cos_small``, ``cos_minus_one_small``, ``sin_cos_minus_one_near``.
 
 numba lowers ``math.sin`` and friends to calls into libm; a call LLVM cannot
 inline keeps a lane loop scalar (and the pip llvmlite has no SVML vector
@@ -152,6 +153,37 @@ def cos_small(x):
     hz = 0.5 * z
     w = 1.0 - hz
     return w + (((1.0 - w) - hz) + (z * z) * r)
+
+
+@jit
+def cos_minus_one_small(x):
+    """cos(x) - 1 for |x| <= pi/4, without the cancellation of forming cos
+    first (kernel_cos's polynomial: -x^2/2 + x^4 (C1 + ... + C6 x^10))."""
+    z = x * x
+    r = fma(z, fma(z, fma(z, fma(z, fma(z, C6, C5), C4), C3), C2), C1)
+    return fma(z * z, r, -0.5 * z)
+
+
+@jit
+def sin_cos_minus_one_near(y):
+    """(sin y, cos y - 1) for a small |y| (the angle of a short step): a
+    two-term Cody-Waite reduction y = n pi/2 + r (no double-double: |n| is
+    small), then sin_small and cos_minus_one_small of r and the quadrant.
+    Accurate to a few ulp of 1 for |y| up to ~20 (tests/test_sine_stages.py);
+    use sincos for large arguments."""
+    shifted = fma(y, TWO_OVER_PI, SHIFTER)
+    quadrant = float_bits(shifted) & 3
+    n = shifted - SHIFTER
+    r = fma(-n, P2, fma(-n, P1, y))
+    sin_r = sin_small(r)
+    cos_r_m1 = cos_minus_one_small(r)
+    # the quadrant: (sin y, cos y - 1) = (s, c-1), (c, -s-1), (-s, -c-1), (-c, s-1)
+    odd = (quadrant & 1) != 0
+    sin_abs = (1.0 + cos_r_m1) if odd else sin_r
+    sin_y = -sin_abs if (quadrant & 2) != 0 else sin_abs
+    cos_abs_m1 = (sin_r - 1.0) if odd else cos_r_m1
+    cos_y_m1 = (-2.0 - cos_abs_m1) if (quadrant == 2) | (quadrant == 1) else cos_abs_m1
+    return sin_y, cos_y_m1
 
 
 @jit
