@@ -179,8 +179,9 @@ def test_accuracy_ends_benchmark_runs_and_counts_no_wrong_outcome(tmp_path):
                           timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     results = json.loads((tmp_path / "accuracy_ends.json").read_text())["results"]
-    assert sorted((r["method"], r["rtol"]) for r in results) == sorted(
-        (m, r) for m in PAIRS for r in (1e-3, 1e-4, 1e-12, 1e-13))
+    assert sorted((r["method"], r["rtol"], r["atol"]) for r in results) == sorted(
+        [(m, r, r) for m in PAIRS for r in (1e-3, 1e-4, 1e-12, 1e-13)]
+        + [(m, r, r * 1e-4) for m in PAIRS for r in (1e-12, 1e-13)])
     for r in results:
         assert r["wrong"] == 0, r
         assert r["W_error_median"] <= r["rtol"], r
