@@ -161,6 +161,79 @@ def test_tight_end_exits_against_the_closed_form(method, rtol):
         assert abs(got["W_friction"] - expected) <= 2 * rtol * expected, (name, got, expected)
 
 
+def closed_form_work(x0, v0, mu, max_segments=200):
+    """(status, W in J/kg, n_reversals) on y = x^2 / 2 with mu_s = mu_k = mu,
+    segment by segment: n(x) as in closed_form_exit_work from each segment's
+    start (x, v^2), the segment's end where n = g (v = 0; Brent to 4 eps, from
+    the maximum of n at x = -d mu on, so the root is the turn ahead) or the
+    domain's end, W = mu |integral of n dx|; at rest the rest rule.  Within
+    3e-15 of a long-double Taylor integration (heyoka) on the two trajectories
+    below (a turn near x = -d mu, where n - g is flat, would not be)."""
+    import math
+
+    import numpy as np
+    from scipy.optimize import brentq
+
+    assert v0 != 0.0  # a start from rest would need the rest rule first
+    nodes, weights = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    lo, hi = RAMP.domain
+    x, u = x0, v0 * v0
+    d = math.copysign(1.0, v0)
+    work, reversals = 0.0, 0
+    for _ in range(max_segments):
+        end = hi if d > 0 else lo
+
+        def n(s, x=x, u=u, d=d):
+            return (G + u) * (1 + x * x) / (1 + s * s) * np.exp(-2 * d * mu * (np.arctan(s) - math.atan(x)))
+
+        if n(end) > G:
+            x1 = end
+        else:
+            start = -d * mu if (-d * mu - x) * d > 0 else x
+            x1 = brentq(lambda s: n(s) - G, start, end, xtol=1e-300, rtol=8.9e-16, maxiter=500)
+        points = 0.5 * (x1 - x) * nodes + 0.5 * (x1 + x)
+        work += mu * abs(0.5 * (x1 - x) * float(np.dot(weights, n(points))))
+        if x1 == end:
+            return EXITED, work, reversals
+        if abs(x1) <= mu:
+            return STUCK, work, reversals
+        reversals += 1  # at rest on a slope steeper than mu: back the other way
+        d, x, u = -d, x1, 0.0
+    raise RuntimeError("too many segments")
+
+
+#: slowly damped swings (mu = 0.02): the largest W errors at the tight end,
+#: error that adds up over the swings (each step of a pair takes a little
+#: energy from the oscillation, which friction then does not take)
+LONG = {
+    "16 reversals": (0.04797979797979801, 2.191919191919192, 0.02, 16),
+    "17 reversals": (-0.22070707070707074, -2.191919191919192, 0.02, 17),
+}
+#: measured: dopri5 25.2-26.1 rtol at every rtol, dop853 0.1-1.6 rtol
+LONG_W_ERROR = {"dopri5": 40.0, "dop853": 3.0}
+
+
+@pytest.mark.parametrize("method", PAIRS)
+@pytest.mark.parametrize("name", list(LONG))
+def test_tight_end_long_trajectories_error_is_truncation_not_rounding(name, method):
+    """The W error of a many-reversal trajectory against the closed form,
+    at rtol = atol 1e-11, 1e-12, 1e-13: within LONG_W_ERROR rtol, and for
+    dopri5 falling tenfold (within 30 %) with each decade of rtol, as the
+    global truncation error does; accumulated rounding would not."""
+    x0, v0, mu, reversals = LONG[name]
+    status, expected, n_rev = closed_form_work(x0, v0, mu)
+    assert status == STUCK and n_rev == reversals
+    errors = []
+    for rtol in (1e-11, 1e-12, 1e-13):
+        _, got = simulate_one(method, rtol, x0, v0, mu)
+        assert got["status"] == STUCK, got
+        errors.append(abs(got["W_friction"] - expected) / expected)
+        assert errors[-1] <= LONG_W_ERROR[method] * rtol, (rtol, errors)
+    if method == "dopri5":
+        ratios = [errors[k] / errors[k + 1] for k in range(2)]
+        assert all(7.0 <= r <= 13.0 for r in ratios), (errors, ratios)
+
+
 def test_accuracy_ends_benchmark_runs_and_counts_no_wrong_outcome(tmp_path):
     """benchmarks/accuracy_ends.py --quick end to end: every pair and tolerance
     reported, no wrong outcome on its 1,000 starts, median W error within
