@@ -107,6 +107,27 @@ def test_dome_reversal_then_fall_orders(method):
     assert np.all(np.abs(orders - ORDER[method]) < 0.2), (errors, orders)
 
 
+@pytest.mark.parametrize("rtol", [1e-4, 1e-6, 1e-9])
+def test_dopri5_within_ten_times_rtol(rtol):
+    """The adaptive pair on the loop's lift-off, the dome's reversal and
+    fall, the arc with friction and the cycloid from its cusp."""
+    loop = Curve.create("loop", radius=1.0)
+    for ratio in (2.5, 4.0, 4.9):
+        out = simulate_curve(loop, s0=0.0, u0=math.sqrt(ratio * G), method="dopri5", rtol=rtol)
+        assert out["status_name"][()] == "lifted_off"
+        assert abs(out["p_lift_off"] - math.acos((2 - ratio) / 3)) < 10 * rtol
+    out, p_lift = _dome_fall("dopri5", 1e-3)  # (the default rtol, 1e-6)
+    assert out["n_reversals"] == 1 and abs(out["p_lift_off"] - p_lift) < 1e-5
+    arc = Curve.create("loop", radius=0.8, entry_angle=-0.5, exit_angle=1.5)
+    out = simulate_curve(arc, s0=-0.4, u0=10.0, mu_k=0.4, method="dopri5", rtol=rtol)
+    expected = math.sqrt(_arc_speed_squared(1.5, -0.5, 100.0, 0.4, 0.8))
+    assert out["u_end"] == pytest.approx(expected, rel=10 * rtol)
+    out = simulate_curve(Curve.create("brachistochrone", radius=1.0), s0=0.0, method="dopri5",
+                         rtol=rtol)
+    assert out["t_end"] == pytest.approx(math.pi * math.sqrt(1.0 / G), abs=10 * rtol)
+    assert out["steps"] < 10 / rtol ** 0.2  # it adapts: ~7 steps at 1e-4, ~50 at 1e-10
+
+
 # ------------------------------------------------------------------------------
 # the circular arc with friction: d(u^2)/dphi = -2 mu u^2 - 2 g R (sin phi + mu cos phi)
 # ------------------------------------------------------------------------------
@@ -368,7 +389,7 @@ def test_bad_runs_are_refused():
     with pytest.raises(ConfigError, match="on the curve"):
         simulate_curve(loop, s0=4.0)
     with pytest.raises(ConfigError) as error:
-        simulate_curve(loop, s0=0.0, method="dopri5")
+        simulate_curve(loop, s0=0.0, method="dop853")
     assert error.value.where == "integrator.method"
     with pytest.raises(ConfigError):
         Curve.create("loop", side="up", radius=1.0)

@@ -11,8 +11,8 @@ curve with a fixed-step method and returns plain arrays::
     >>> out["status_name"]      # too slow: lifted_off; fast enough: exited
     array(['lifted_off', 'exited'], dtype='<U10')
 
-Scene files (``[curve]``), sweeps through :func:`rampwork.simulate` and the
-adaptive pairs on curves are not there yet (docs/physics.md §5).
+Scene files (``[curve]``), sweeps through :func:`rampwork.simulate` and
+DOP853 on curves are not there yet (docs/physics.md §5).
 """
 
 from __future__ import annotations
@@ -254,6 +254,7 @@ def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, frictio
 
 def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1.0,
                    method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
+                   rtol: float = 1e-6, atol: float | None = None,
                    contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
                    **shape) -> dict[str, np.ndarray]:
     """Trajectories on ``curve``: every argument given as an array is swept
@@ -261,7 +262,11 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
 
     ``s0``: the start's position parameter (the arc length for the curve
     families; x for a wrapped ramp); ``u0``: the signed speed along the
-    curve (> 0: towards larger s).  ``mu_s`` defaults to ``mu_k``.  Returns
+    curve (> 0: towards larger s).  ``mu_s`` defaults to ``mu_k``.
+    ``method``: ``euler``, ``semi_implicit_euler``, ``rk4`` (steps of
+    ``dt``) or ``dopri5`` (its first step ``dt``, then a local error of p, u
+    and the friction work below ``atol + rtol |value|``; ``atol`` defaults
+    to ``rtol``).  Returns
     arrays of the broadcast shape: ``status`` (codes of
     ``rampwork.STATUS_TABLE``), ``status_name`` and
     ``curve_kernel.OUTPUTS`` (``p_end``: the end's position parameter;
@@ -270,11 +275,13 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     if not isinstance(curve, Curve):
         raise ConfigError("curve", f"expected a rampwork.curves.Curve, got {type(curve).__name__}")
     if method not in curve_kernel.CURVE_STEPPERS:
-        raise ConfigError("integrator.method", f"curves run with a fixed-step method: "
+        raise ConfigError("integrator.method", f"curves run with "
                           f"{', '.join(curve_kernel.CURVE_STEPPERS)}; got {method!r}")
     validate.choice("contact", contact, CONTACTS)
     dt = validate.positive("integrator.dt", dt)
     t_max = validate.positive("t_max", t_max)
+    rtol = validate.positive("integrator.rtol", rtol)
+    atol = rtol if atol is None else validate.positive("integrator.atol", atol)
     spec = curve.spec
     if curve.ramp is not None and shape:
         raise ConfigError(f"curve.{next(iter(shape))}", "sweep a wrapped ramp's parameters "
@@ -336,7 +343,7 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
                               drag_linear=bool((flat["drag_linear"] > 0).any()),
                               drag_quadratic=bool((flat["drag_quadratic"] > 0).any()))
     out, status = curve_kernel.empty_outputs(n)
-    kernel(inputs, shared, dt, t_max, SIDES[curve.side], out, status)
+    kernel(inputs, shared, dt, t_max, SIDES[curve.side], rtol, atol, out, status)
     result = {name: out[k].reshape(shape_out) for k, name in enumerate(curve_kernel.OUTPUTS)}
     result["status"] = status.reshape(shape_out)
     result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(shape_out)

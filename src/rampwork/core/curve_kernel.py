@@ -35,11 +35,14 @@ import math
 import numpy as np
 
 from . import status as st
-from .jit import fma, jit, specialise
+from .control import ERROR_FLOOR, FACTOR_MAX, FACTOR_MIN, PI_DOPRI5, SAFETY
+from .curve_steppers import CURVE_STEPPERS, _stage, normal_along_n
+from .jit import fma, specialise
 
 # bound per scene by build_curve_kernel (compile-time constants)
-curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = stage = None
+curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = None
 contact_sign = None
+ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
 FRICTION = True  # False: mu_k = 0 everywhere, no friction branch
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
@@ -47,101 +50,30 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 #: rows of the kernel's float output, in order
 OUTPUTS = ("t_end", "p_end", "u_end", "X_end", "Y_end", "W_friction", "W_energy", "W_drag",
            "energy_balance_error", "displacement", "path_length", "curvature_mean", "nu_min",
-           "p_lift_off", "X_lift_off", "Y_lift_off", "n_reversals", "steps")
+           "p_lift_off", "X_lift_off", "Y_lift_off", "n_reversals", "steps", "steps_rejected")
 (O_T, O_P, O_U, O_X, O_Y, O_W, O_WE, O_WD, O_BAL, O_DISP, O_PATH, O_KMEAN, O_NUMIN, O_PLIFT,
- O_XLIFT, O_YLIFT, O_NREV, O_STEPS) = range(len(OUTPUTS))
+ O_XLIFT, O_YLIFT, O_NREV, O_STEPS, O_REJECTED) = range(len(OUTPUTS))
 #: rows of the kernel's per-trajectory input
 INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", "p_hi",
           "drag_b", "drag_c")
 (I_P, I_U, I_MUK, I_MUS, I_G, I_M, I_S0, I_S1, I_S2, I_S3, I_LO, I_HI, I_B, I_C) = range(len(INPUTS))
 #: events in a row without a full step between them before a trajectory is declared diverged
 MAX_EVENTS_IN_ROW = 100
+#: an adaptive step that shrinks below this fraction of the time reached is a divergence
+SMALLEST_STEP = 1e-14
 
 
-@jit
-def normal_along_n(u, cos_phi, kappa, g):
-    """nu = kappa u^2 + g cos phi.  At u = 0 exactly it is g cos phi: at the
-    cycloid's cusp the curvature is infinite and inf * 0 would be NaN."""
-    centripetal = kappa * (u * u)
-    return fma(g, cos_phi, centripetal if u != 0.0 else 0.0)
-
-
-def _stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c):
-    """At one point: (du/dt, nu, kappa u, dp/ds, drag power per unit mass).
-    An infinite curvature (a cusp, a single point) turns nothing: kappa u is
-    taken as 0 there rather than inf * u."""
-    sin_phi, cos_phi, kappa, dp_ds = curve_frame(p, s0, s1, s2, s3, shared)
-    nu = normal_along_n(u, cos_phi, kappa, g)
-    a = -g * sin_phi
-    if FRICTION:
-        a = fma(-q, nu, a)
-    power = 0.0
-    if DRAG:
-        k = 0.0
-        if DRAG_LINEAR:
-            k = b
-        if DRAG_QUADRATIC:
-            k = fma(c, d * u, k)
-        a = fma(-k, u, a)
-        power = k * (u * u)
-    turn = kappa * u if math.isfinite(kappa) else 0.0
-    return a, nu, turn, dp_ds, power
-
-
-# Each step returns (p_new, u_new, friction work, curvature integral,
-# displacement, drag work): the increments of the per-unit-mass integrals
-# ∫ q nu u dt (= ∫ mu_k |nu| |u| dt), ∫ kappa d u dt, ∫ u dt and
-# ∫ k u^2 dt, with the method's own order.
-def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c):
-    a, nu, turn, dp_ds, power = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
-    work = h * q * nu * u if FRICTION else 0.0
-    return fma(h, u * dp_ds, p), fma(h, a, u), work, h * d * turn, h * u, h * power
-
-
-def _semi_implicit_euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c):
-    a, nu, turn, dp_ds, power = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
-    u_new = fma(h, a, u)
-    work = h * q * nu * u if FRICTION else 0.0
-    return fma(h, u_new * dp_ds, p), u_new, work, h * d * turn, h * u_new, h * power
-
-
-def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c):
-    half = 0.5 * h
-    a1, nu1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
-    u2 = fma(half, a1, u)
-    a2, nu2, k2, r2, pd2 = stage(fma(half, u * r1, p), u2, q, d, g, s0, s1, s2, s3, shared, b, c)
-    u3 = fma(half, a2, u)
-    a3, nu3, k3, r3, pd3 = stage(fma(half, u2 * r2, p), u3, q, d, g, s0, s1, s2, s3, shared, b, c)
-    u4 = fma(h, a3, u)
-    a4, nu4, k4, r4, pd4 = stage(fma(h, u3 * r3, p), u4, q, d, g, s0, s1, s2, s3, shared, b, c)
-    sixth = h / 6.0
-    p_new = fma(sixth, u * r1 + 2.0 * (u2 * r2 + u3 * r3) + u4 * r4, p)
-    u_new = fma(sixth, a1 + 2.0 * (a2 + a3) + a4, u)
-    work = q * sixth * (nu1 * u + 2.0 * (nu2 * u2 + nu3 * u3) + nu4 * u4) if FRICTION else 0.0
-    curvature = d * sixth * (k1 + 2.0 * (k2 + k3) + k4)
-    displacement = sixth * (u + 2.0 * (u2 + u3) + u4)
-    drag = sixth * (pd1 + 2.0 * (pd2 + pd3) + pd4) if DRAG else 0.0
-    return p_new, u_new, work, curvature, displacement, drag
-
-
-#: fixed-step method name -> (step template, order)
-CURVE_STEPPERS = {
-    "euler": (_euler_step, 1),
-    "semi_implicit_euler": (_semi_implicit_euler_step, 1),
-    "rk4": (_rk4_step, 4),
-}
-
-
-def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi):
+def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, rtol, atol):
     """One step and whether it is clean (no event condition fired):
-    ``(p1, u1, dw, dk, dx, dwd, nu1, clean)``.  NaN fails every comparison,
+    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
     exit (a first-order step from rest does not move p); passing it is."""
-    p1, u1, dw, dk, dx, dwd = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c)
+    p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c,
+                                             rtol, atol)
     _, cos1, kappa1, _ = curve_frame(p1, s0, s1, s2, s3, shared)
     nu1 = normal_along_n(u1, cos1, kappa1, g)
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
-    return p1, u1, dw, dk, dx, dwd, nu1, clean
+    return p1, u1, dw, dk, dx, dwd, err, nu1, clean
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -180,9 +112,13 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-def _trajectory(inputs, j, shared, h, t_max, side, out):
+def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     """One trajectory from column j of ``inputs``; writes column j of ``out``
-    and returns its status."""
+    and returns its status.  ``h``: the step (an adaptive pair's first).
+
+    An adaptive step is accepted where its error norm is <= 1, with the ramp
+    kernel's PI controller (control.py); a step with an event is judged at
+    the event, after it is located (its error is that of the shorter step)."""
     p = inputs[I_P, j]
     u = inputs[I_U, j]
     mu_k = inputs[I_MUK, j]
@@ -202,7 +138,11 @@ def _trajectory(inputs, j, shared, h, t_max, side, out):
     work = curvature = displacement = path = drag_work = 0.0
     reversals = 0
     steps = 0
+    rejected = 0
     in_row = 0
+    h_next = h
+    error_previous = ERROR_FLOOR
+    rejected_before = False
     status = st.NOT_RUN
     p_lift = math.nan
     sin0, cos0, kappa0, _ = curve_frame(p, s0, s1, s2, s3, shared)
@@ -224,10 +164,10 @@ def _trajectory(inputs, j, shared, h, t_max, side, out):
         if t >= t_max:
             status = st.TIMEOUT
             break
-        step_size = h if t + h <= t_max else t_max - t
+        step_size = h_next if t + h_next <= t_max else t_max - t
         q = d * mu_k * sn
-        p1, u1, dw, dk, dx, dwd, nu1, clean = try_step(
-            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi)
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
+            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, rtol, atol)
         if not clean:
             # the event: bisect on the step size to adjacent floats lo < hi,
             # lo clean, hi not, and take the step of size hi
@@ -237,16 +177,36 @@ def _trajectory(inputs, j, shared, h, t_max, side, out):
                 mid = 0.5 * (lo + hi)
                 if not (lo < mid < hi):
                     break
-                if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi)[7]:
+                if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
+                            rtol, atol)[8]:
                     lo = mid
                 else:
                     hi = mid
             step_size = hi
-            p1, u1, dw, dk, dx, dwd, nu1, clean = try_step(
-                p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi)
-            in_row += 1
-        else:
+            p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
+                p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, rtol, atol)
+        if ADAPTIVE:
+            if not (err <= 1.0):  # rejected (NaN included): shrink and try again
+                rejected += 1
+                factor = FACTOR_MIN
+                if err == err:
+                    factor = max(FACTOR_MIN, SAFETY * err ** -0.2)
+                h_next = step_size * factor
+                rejected_before = True
+                if not (h_next > SMALLEST_STEP * max(t, 1.0)):
+                    status = st.DIVERGED
+                    break
+                continue
+            if clean:  # an event step's size says nothing of the next one's
+                factor = SAFETY * max(err, 1e-30) ** -PI_DOPRI5[0] * error_previous ** PI_DOPRI5[1]
+                factor = min(max(factor, FACTOR_MIN), 1.0 if rejected_before else FACTOR_MAX)
+                h_next = step_size * factor
+                error_previous = max(err, ERROR_FLOOR)
+            rejected_before = False
+        if clean:
             in_row = 0
+        else:
+            in_row += 1
         # nu may be +-inf at a cusp (infinite curvature, frictionless): not NaN
         finite = (math.isfinite(p1) and math.isfinite(u1) and math.isfinite(dw)
                   and nu1 == nu1 and math.isfinite(dk))
@@ -319,23 +279,24 @@ def _trajectory(inputs, j, shared, h, t_max, side, out):
         out[O_YLIFT, j] = math.nan
     out[O_NREV, j] = reversals
     out[O_STEPS, j] = steps
+    out[O_REJECTED, j] = rejected
     return status
 
 
-def _batch(inputs, shared, h, t_max, side, out, status):
+def _batch(inputs, shared, h, t_max, side, rtol, atol, out, status):
     """Every column of ``inputs`` (rows :data:`INPUTS`) into ``out`` (rows
     :data:`OUTPUTS`) and ``status``."""
     for j in range(inputs.shape[1]):
-        status[j] = trajectory(inputs, j, shared, h, t_max, side, out)
+        status[j] = trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out)
 
 
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
                        drag_quadratic: bool = False, cache: bool = True):
-    """The batch function ``(inputs, shared, h, t_max, side, out, status)``
-    of one curve family (``key`` names it uniquely; ``frame``, ``point`` its
-    jitted functions) and fixed-step ``method``, compiled with only the
-    effects asked for."""
+    """The batch function ``(inputs, shared, h, t_max, side, rtol, atol,
+    out, status)`` of one curve family (``key`` names it uniquely;
+    ``frame``, ``point`` its jitted functions) and ``method``, compiled with
+    only the effects asked for."""
     if method not in CURVE_STEPPERS:
         raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
     flags = "".join(suffix for on, suffix in (
@@ -343,6 +304,7 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
         (drag_quadratic, "_dragc")) if on)
     name = f"curve_{key}_{method}{flags}"
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
+                 "ADAPTIVE": CURVE_STEPPERS[method][2],
                  "FRICTION": friction, "DRAG_LINEAR": drag_linear,
                  "DRAG_QUADRATIC": drag_quadratic, "DRAG": drag_linear or drag_quadratic}
     options = {} if cache else {"cache": False}
