@@ -240,13 +240,17 @@ WRAPPED = [
 #: differ by their truncation errors (state (x, v) against (x, u)), so they
 #: agree to the method's accuracy; the C2 spline's f''' jumps at its knots,
 #: which limits RK4 there
-WRAP_RUNS = {"euler": (1e-4, 2e-2), "semi_implicit_euler": (1e-4, 2e-2), "rk4": (1e-3, 1e-8)}
+WRAP_RUNS = {"euler": (1e-4, 2e-2), "semi_implicit_euler": (1e-4, 2e-2), "rk4": (1e-3, 1e-8),
+             "dopri5": (None, 1e-7)}
+#: dopri5's tolerance for the comparison (both kernels)
+WRAP_RTOL = 1e-10
 
 
 def _compare_wrapped(ramp, method, seed):
     dt, tol = WRAP_RUNS[method]
     if ramp.family == "spline" and method == "rk4":
         tol = 1e-5
+    adaptive = {"rtol": WRAP_RTOL} if method == "dopri5" else {}
     rng = np.random.default_rng(seed)
     n = 24
     lo, hi = ramp.domain
@@ -254,11 +258,12 @@ def _compare_wrapped(ramp, method, seed):
     x0 = rng.uniform(0.9 * lo, 0.9 * hi, n)
     v0 = rng.uniform(-2, 2, n)
     v0[:6] = 0.0  # starts at rest: the rest rule
-    scene = rw.Scene(ramp=ramp, integrator=rw.Integrator(method, dt=dt, closed_form=False), t_max=5.0)
+    scene = rw.Scene(ramp=ramp, integrator=rw.Integrator(method, dt=dt, closed_form=False,
+                                                         **adaptive), t_max=5.0)
     ds = rw.simulate(scene, rw.Sweep.cases(mu=mu, x0=x0, v0=v0))
     _, fp0, _ = ramp.evaluate(x0)
     out = simulate_curve(Curve.from_ramp(ramp), s0=x0, u0=v0 * np.sqrt(1 + fp0 ** 2), mu_k=mu,
-                         method=method, dt=dt, t_max=5.0)
+                         method=method, dt=dt or 1e-3, t_max=5.0, **adaptive)
     np.testing.assert_array_equal(out["status"], ds.status.values)
     np.testing.assert_array_equal(out["n_reversals"], ds.n_reversals.values)
     np.testing.assert_allclose(out["p_end"], ds.x_end.values, atol=tol)
@@ -280,6 +285,11 @@ def test_wrapped_ramps_agree_with_the_ramp_kernel_rk4(ramp):
 @pytest.mark.parametrize("ramp", [WRAPPED[1], WRAPPED[3], WRAPPED[5]], ids=lambda r: r.family)
 def test_wrapped_ramps_agree_with_the_ramp_kernel_first_order(ramp, method):
     _compare_wrapped(ramp, method, seed=11)
+
+
+@pytest.mark.parametrize("ramp", [WRAPPED[1], WRAPPED[3], WRAPPED[5]], ids=lambda r: r.family)
+def test_wrapped_ramps_agree_with_the_ramp_kernel_dopri5(ramp):
+    _compare_wrapped(ramp, "dopri5", seed=5)
 
 
 def test_wrapped_scenes_cover_stops_reversals_and_lift_offs():
