@@ -78,6 +78,18 @@ def test_loop_below_the_equator_swings_without_leaving(method):
     assert out["nu_min"] > 0
 
 
+@pytest.mark.parametrize("method", METHODS + ("dopri5",))
+def test_loop_at_exactly_five_g_r_touches_zero_and_goes_over(method):
+    """u_bottom^2 = 5 g R: nu = 3 g (1 + cos theta) touches 0 at the top
+    without changing sign; the block goes over, for both contacts."""
+    loop = Curve.create("loop", radius=1.0)
+    for contact in ("one_sided", "two_sided"):
+        out = simulate_curve(loop, s0=0.0, u0=math.sqrt(5 * G), method=method,
+                             dt=STEP.get(method, 1e-3), contact=contact)
+        assert out["status_name"][()] == "exited" and out["n_reversals"] == 0
+        assert 0.0 <= out["nu_min"] < 0.1
+
+
 # ------------------------------------------------------------------------------
 # a reversal and a fall (outside of a circle): orders 1 and 4
 # ------------------------------------------------------------------------------
