@@ -45,7 +45,7 @@ class CurveFamily:
     its position parameter and the checks of its values."""
 
     def __init__(self, name, description, parameters, frame, point, domain, *, side="left",
-                 position="s", check=None, key=None, cacheable=True):
+                 position="s", check=None, key=None, cacheable=True, joint=None):
         self.name = name
         self.description = description
         self.parameters = tuple(parameters)
@@ -55,6 +55,7 @@ class CurveFamily:
         self.side = side
         self.position = position  # what p is: "s" (arc length) or "x"
         self._check = check
+        self._joint = joint  # (arrays by name) -> the joint's p (NaN: none), or None
         self.key = key or name
         self.cacheable = cacheable
         self._evaluator = None
@@ -91,6 +92,11 @@ class CurveFamily:
         if self._check is not None:
             self._check(arrays)
         return arrays
+
+    def joint(self, arrays) -> np.ndarray | None:
+        """Where the curvature jumps (steps end there), NaN where it does not;
+        None for a family without joints."""
+        return None if self._joint is None else np.asarray(self._joint(arrays), dtype=np.float64)
 
     def domain(self, arrays) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self._domain(arrays)
@@ -143,7 +149,8 @@ FAMILIES: dict[str, CurveFamily] = {
         core_curves.quarter_pipe_frame, core_curves.quarter_pipe_point,
         lambda a: (np.zeros_like(a["radius"] + a["flat_length"]),
                    a["flat_length"] + 0.5 * math.pi * a["radius"]),
-        check=_check_quarter_pipe),
+        check=_check_quarter_pipe,
+        joint=lambda a: a["flat_length"] + 0 * a["radius"]),  # at 0 too: a start there
     "brachistochrone": CurveFamily(
         "brachistochrone", "cycloid from its cusp at the origin: X = r (t - sin t), "
         "Y = -r (1 - cos t), t in [0, end_angle]; s = 4 r (1 - cos(t/2)), vertical at the cusp",
@@ -239,13 +246,14 @@ _KERNELS: dict = {}
 
 
 def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, friction: bool,
-                     drag_linear: bool, drag_quadratic: bool):
+                     drag_linear: bool, drag_quadratic: bool, joints: bool):
     """The compiled batch function for these choices (built once per process)."""
-    key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic)
+    key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic, joints)
     if key not in _KERNELS or not spec.cacheable:
         kernel = curve_kernel.build_curve_kernel(
             spec.key, spec.frame, spec.point, method, one_sided=one_sided, friction=friction,
-            drag_linear=drag_linear, drag_quadratic=drag_quadratic, cache=spec.cacheable)
+            drag_linear=drag_linear, drag_quadratic=drag_quadratic, joints=joints,
+            cache=spec.cacheable)
         if not spec.cacheable:
             return kernel
         _KERNELS[key] = kernel
@@ -309,6 +317,7 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     flat = {k: np.broadcast_to(v, shape_out).ravel() for k, v in scalars.items()}
     params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
               for a in arrays.values()]
+    joint = None
     if curve.ramp is not None:
         p_lo = np.full(n, curve.ramp.domain[0])
         p_hi = np.full(n, curve.ramp.domain[1])
@@ -317,6 +326,8 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
         lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
         shared = np.zeros(1)
+        joint = spec.joint({k: a for k, a in zip(arrays, params)})
+    joints = joint is not None and bool(np.isfinite(joint).any())
     start = flat["s0"]
     off = ~((start >= p_lo) & (start <= p_hi))
     if off.any():
@@ -334,14 +345,16 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
                         (curve_kernel.I_G, flat["g"]), (curve_kernel.I_M, flat["m"]),
                         (curve_kernel.I_LO, p_lo), (curve_kernel.I_HI, p_hi),
                         (curve_kernel.I_B, flat["drag_linear"]),
-                        (curve_kernel.I_C, flat["drag_quadratic"])):
+                        (curve_kernel.I_C, flat["drag_quadratic"]),
+                        (curve_kernel.I_JOINT, np.broadcast_to(joint, (n,)) if joints else np.nan)):
         inputs[row] = values
     for k, values in enumerate(params):
         inputs[curve_kernel.I_S0 + k] = values
     kernel = curve_kernel_for(spec, method, one_sided=contact == "one_sided",
                               friction=bool((flat["mu_k"] > 0).any()),
                               drag_linear=bool((flat["drag_linear"] > 0).any()),
-                              drag_quadratic=bool((flat["drag_quadratic"] > 0).any()))
+                              drag_quadratic=bool((flat["drag_quadratic"] > 0).any()),
+                              joints=joints)
     out, status = curve_kernel.empty_outputs(n)
     kernel(inputs, shared, dt, t_max, SIDES[curve.side], rtol, atol, out, status)
     result = {name: out[k].reshape(shape_out) for k, name in enumerate(curve_kernel.OUTPUTS)}

@@ -43,6 +43,8 @@ from .jit import fma, specialise
 curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = None
 contact_sign = None
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
+JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
+# family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
 FRICTION = True  # False: mu_k = 0 everywhere, no friction branch
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
@@ -55,24 +57,30 @@ OUTPUTS = ("t_end", "p_end", "u_end", "X_end", "Y_end", "W_friction", "W_energy"
  O_XLIFT, O_YLIFT, O_NREV, O_STEPS, O_REJECTED) = range(len(OUTPUTS))
 #: rows of the kernel's per-trajectory input
 INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", "p_hi",
-          "drag_b", "drag_c")
-(I_P, I_U, I_MUK, I_MUS, I_G, I_M, I_S0, I_S1, I_S2, I_S3, I_LO, I_HI, I_B, I_C) = range(len(INPUTS))
+          "drag_b", "drag_c", "p_joint")
+(I_P, I_U, I_MUK, I_MUS, I_G, I_M, I_S0, I_S1, I_S2, I_S3, I_LO, I_HI, I_B, I_C,
+ I_JOINT) = range(len(INPUTS))
 #: events in a row without a full step between them before a trajectory is declared diverged
 MAX_EVENTS_IN_ROW = 100
 #: an adaptive step that shrinks below this fraction of the time reached is a divergence
 SMALLEST_STEP = 1e-14
 
 
-def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, rtol, atol):
+def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol):
     """One step and whether it is clean (no event condition fired):
     ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
-    exit (a first-order step from rest does not move p); passing it is."""
+    exit (a first-order step from rest does not move p); passing it is.
+    With ``JOINTS``, a step that crosses ``joint`` (a curvature jump; NaN:
+    none) is not clean either: the step is cut to end just past it, so no
+    step integrates across the jump and every method keeps its order."""
     p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c,
                                              rtol, atol)
     _, cos1, kappa1, _ = curve_frame(p1, s0, s1, s2, s3, shared)
     nu1 = normal_along_n(u1, cos1, kappa1, g)
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
+    if JOINTS:
+        clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
     return p1, u1, dw, dk, dx, dwd, err, nu1, clean
 
 
@@ -132,6 +140,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     p_hi = inputs[I_HI, j]
     b = inputs[I_B, j]
     c = inputs[I_C, j]
+    joint = inputs[I_JOINT, j]
     _, y0 = curve_point(p, s0, s1, s2, s3, shared)
     energy_start = fma(g, y0, 0.5 * u * u)
     t = 0.0
@@ -166,8 +175,13 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
             break
         step_size = h_next if t + h_next <= t_max else t_max - t
         q = d * mu_k * sn
+        if JOINTS:  # the piece the step starts on, or moves into from the joint
+            s3 = d if p == joint else (1.0 if p > joint else -1.0)
+            if joint != joint:
+                s3 = 0.0
         p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
-            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, rtol, atol)
+            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
+            atol)
         if not clean:
             # the event: bisect on the step size to adjacent floats lo < hi,
             # lo clean, hi not, and take the step of size hi
@@ -178,13 +192,14 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
                 if not (lo < mid < hi):
                     break
                 if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
-                            rtol, atol)[8]:
+                            joint, rtol, atol)[8]:
                     lo = mid
                 else:
                     hi = mid
             step_size = hi
             p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
-                p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, rtol, atol)
+                p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
+            atol)
         if ADAPTIVE:
             if not (err <= 1.0):  # rejected (NaN included): shrink and try again
                 rejected += 1
@@ -292,7 +307,7 @@ def _batch(inputs, shared, h, t_max, side, rtol, atol, out, status):
 
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
-                       drag_quadratic: bool = False, cache: bool = True):
+                       drag_quadratic: bool = False, joints: bool = False, cache: bool = True):
     """The batch function ``(inputs, shared, h, t_max, side, rtol, atol,
     out, status)`` of one curve family (``key`` names it uniquely;
     ``frame``, ``point`` its jitted functions) and ``method``, compiled with
@@ -301,10 +316,10 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
         raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
     flags = "".join(suffix for on, suffix in (
         (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
-        (drag_quadratic, "_dragc")) if on)
+        (drag_quadratic, "_dragc"), (joints, "_joints")) if on)
     name = f"curve_{key}_{method}{flags}"
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": CURVE_STEPPERS[method][2],
+                 "ADAPTIVE": CURVE_STEPPERS[method][2], "JOINTS": joints,
                  "FRICTION": friction, "DRAG_LINEAR": drag_linear,
                  "DRAG_QUADRATIC": drag_quadratic, "DRAG": drag_linear or drag_quadratic}
     options = {} if cache else {"cache": False}

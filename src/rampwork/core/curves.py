@@ -46,13 +46,20 @@ def loop_point(p, p0, p1, p2, p3, shared):
 # ---------------------------------------------------------------------------
 # quarter pipe: a flat of length L = p1 along y = 0 from the origin, then a
 # quarter circle of radius R = p0 curving up to a vertical tangent at
-# s = L + pi R / 2.  The curvature jumps from 0 to 1/R at s = L.
+# s = L + pi R / 2.  The curvature jumps from 0 to 1/R at s = L: a joint.
+#
+# A family with a joint reads p3 as the branch, which the kernel sets per
+# step (curve_kernel.JOINTS): 0.0 decides by p; -1.0 the piece before the
+# joint and +1.0 the one after, each continued smoothly past it, so that no
+# stage of a step that ends at the joint sees the other piece, and a step
+# that starts on the joint sees the piece it moves into.
 
 
 @jit
 def quarter_pipe_frame(p, p0, p1, p2, p3, shared):
-    theta = max(p - p1, 0.0) / p0
-    return math.sin(theta), math.cos(theta), 1.0 / p0 if p > p1 else 0.0, 1.0
+    curved = p > p1 if p3 == 0.0 else p3 > 0.0
+    theta = (p - p1) / p0 if curved else 0.0
+    return math.sin(theta), math.cos(theta), 1.0 / p0 if curved else 0.0, 1.0
 
 
 @jit
