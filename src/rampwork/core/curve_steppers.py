@@ -1,0 +1,159 @@
+"""Steps of the curve kernel (docs/physics.md §5), as templates specialised per scene.
+
+Each advances ``(p, u)`` by ``h`` within a mode (direction ``d``, signed
+friction ``q = d mu_k s_nu`` fixed) and returns
+
+    (p_new, u_new, friction work, turning, displacement, drag work, error)
+
+the increments of the per-unit-mass integrals ∫ q nu u dt
+(= ∫ mu_k |nu| |u| dt), ∫ kappa d u dt, ∫ u dt and ∫ k u^2 dt, with the
+method's own order, and the step's scaled error norm (an embedded pair's
+estimate against ``atol + rtol |y|``; 0.0 for the fixed-step methods).
+``curve_frame`` and the switches ``FRICTION``, ``DRAG*`` are bound per scene
+by ``jit.specialise``; ``stage`` is this module's :func:`_stage`, specialised.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .jit import fma, jit
+from .steppers import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64,
+                       A65, B1, B3, B4, B5, B6, E1, E3, E4, E5, E6, E7)
+
+curve_frame = stage = None  # bound per scene
+FRICTION = True
+DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False
+
+
+@jit
+def normal_along_n(u, cos_phi, kappa, g):
+    """nu = kappa u^2 + g cos phi.  At u = 0 exactly it is g cos phi: at the
+    cycloid's cusp the curvature is infinite and inf * 0 would be NaN."""
+    centripetal = kappa * (u * u)
+    return fma(g, cos_phi, centripetal if u != 0.0 else 0.0)
+
+
+def _stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c):
+    """At one point: (du/dt, nu, kappa u, dp/ds, drag power per unit mass).
+    An infinite curvature (a cusp, a single point) turns nothing: kappa u is
+    taken as 0 there rather than inf * u."""
+    sin_phi, cos_phi, kappa, dp_ds = curve_frame(p, s0, s1, s2, s3, shared)
+    nu = normal_along_n(u, cos_phi, kappa, g)
+    a = -g * sin_phi
+    if FRICTION:
+        a = fma(-q, nu, a)
+    power = 0.0
+    if DRAG:
+        k = 0.0
+        if DRAG_LINEAR:
+            k = b
+        if DRAG_QUADRATIC:
+            k = fma(c, d * u, k)
+        a = fma(-k, u, a)
+        power = k * (u * u)
+    turn = kappa * u if math.isfinite(kappa) else 0.0
+    return a, nu, turn, dp_ds, power
+
+
+def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+    a, nu, turn, dp_ds, power = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    work = h * q * nu * u if FRICTION else 0.0
+    return fma(h, u * dp_ds, p), fma(h, a, u), work, h * d * turn, h * u, h * power, 0.0
+
+
+def _semi_implicit_euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+    a, nu, turn, dp_ds, power = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    u_new = fma(h, a, u)
+    work = h * q * nu * u if FRICTION else 0.0
+    return fma(h, u_new * dp_ds, p), u_new, work, h * d * turn, h * u_new, h * power, 0.0
+
+
+def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+    half = 0.5 * h
+    a1, nu1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    u2 = fma(half, a1, u)
+    a2, nu2, k2, r2, pd2 = stage(fma(half, u * r1, p), u2, q, d, g, s0, s1, s2, s3, shared, b, c)
+    u3 = fma(half, a2, u)
+    a3, nu3, k3, r3, pd3 = stage(fma(half, u2 * r2, p), u3, q, d, g, s0, s1, s2, s3, shared, b, c)
+    u4 = fma(h, a3, u)
+    a4, nu4, k4, r4, pd4 = stage(fma(h, u3 * r3, p), u4, q, d, g, s0, s1, s2, s3, shared, b, c)
+    sixth = h / 6.0
+    p_new = fma(sixth, u * r1 + 2.0 * (u2 * r2 + u3 * r3) + u4 * r4, p)
+    u_new = fma(sixth, a1 + 2.0 * (a2 + a3) + a4, u)
+    work = q * sixth * (nu1 * u + 2.0 * (nu2 * u2 + nu3 * u3) + nu4 * u4) if FRICTION else 0.0
+    curvature = d * sixth * (k1 + 2.0 * (k2 + k3) + k4)
+    displacement = sixth * (u + 2.0 * (u2 + u3) + u4)
+    drag = sixth * (pd1 + 2.0 * (pd2 + pd3) + pd4) if DRAG else 0.0
+    return p_new, u_new, work, curvature, displacement, drag, 0.0
+
+
+def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+    """Dormand-Prince 5(4) (the ramp kernel's tableau, steppers.py), without
+    carrying the last stage over: the error norm covers p, u and the
+    friction work (and the drag work with drag), RMS of err / (atol + rtol |y|)."""
+    a1, n1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v1 = u * r1
+    u2 = fma(h * A21, a1, u)
+    a2, n2, k2, r2, pd2 = stage(fma(h * A21, v1, p), u2, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v2 = u2 * r2
+    u3 = fma(h, fma(A32, a2, A31 * a1), u)
+    a3, n3, k3, r3, pd3 = stage(fma(h, fma(A32, v2, A31 * v1), p), u3, q, d, g, s0, s1, s2, s3,
+                                shared, b, c)
+    v3 = u3 * r3
+    u4 = fma(h, fma(A43, a3, fma(A42, a2, A41 * a1)), u)
+    a4, n4, k4, r4, pd4 = stage(fma(h, fma(A43, v3, fma(A42, v2, A41 * v1)), p), u4, q, d, g,
+                                s0, s1, s2, s3, shared, b, c)
+    v4 = u4 * r4
+    u5 = fma(h, fma(A54, a4, fma(A53, a3, fma(A52, a2, A51 * a1))), u)
+    a5, n5, k5, r5, pd5 = stage(fma(h, fma(A54, v4, fma(A53, v3, fma(A52, v2, A51 * v1))), p),
+                                u5, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v5 = u5 * r5
+    u6 = fma(h, fma(A65, a5, fma(A64, a4, fma(A63, a3, fma(A62, a2, A61 * a1)))), u)
+    a6, n6, k6, r6, pd6 = stage(
+        fma(h, fma(A65, v5, fma(A64, v4, fma(A63, v3, fma(A62, v2, A61 * v1)))), p), u6, q, d, g,
+        s0, s1, s2, s3, shared, b, c)
+    v6 = u6 * r6
+    p7 = fma(h, fma(B6, v6, fma(B5, v5, fma(B4, v4, fma(B3, v3, B1 * v1)))), p)
+    u7 = fma(h, fma(B6, a6, fma(B5, a5, fma(B4, a4, fma(B3, a3, B1 * a1)))), u)
+    a7, n7, k7, r7, pd7 = stage(p7, u7, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v7 = u7 * r7
+    w1, w3, w4, w5, w6, w7 = n1 * u, n3 * u3, n4 * u4, n5 * u5, n6 * u6, n7 * u7
+    work = h * q * _weigh5(w1, w3, w4, w5, w6) if FRICTION else 0.0
+    turn = h * d * _weigh5(k1, k3, k4, k5, k6)
+    displacement = h * _weigh5(u, u3, u4, u5, u6)
+    drag = h * _weigh5(pd1, pd3, pd4, pd5, pd6) if DRAG else 0.0
+    err_p = h * _error6(v1, v3, v4, v5, v6, v7) / fma(rtol, max(abs(p), abs(p7)), atol)
+    err_u = h * _error6(a1, a3, a4, a5, a6, a7) / fma(rtol, max(abs(u), abs(u7)), atol)
+    squares = err_p * err_p + err_u * err_u
+    count = 2.0
+    if FRICTION:
+        err_w = h * q * _error6(w1, w3, w4, w5, w6, w7) / fma(rtol, abs(work), atol)
+        squares += err_w * err_w
+        count += 1.0
+    if DRAG:
+        err_d = h * _error6(pd1, pd3, pd4, pd5, pd6, pd7) / fma(rtol, abs(drag), atol)
+        squares += err_d * err_d
+        count += 1.0
+    return p7, u7, work, turn, displacement, drag, math.sqrt(squares / count)
+
+
+@jit
+def _weigh5(k1, k3, k4, k5, k6):
+    return fma(B6, k6, fma(B5, k5, fma(B4, k4, fma(B3, k3, B1 * k1))))
+
+
+@jit
+def _error6(k1, k3, k4, k5, k6, k7):
+    return fma(E7, k7, fma(E6, k6, fma(E5, k5, fma(E4, k4, fma(E3, k3, E1 * k1)))))
+
+
+#: method name -> (step template, order, adaptive)
+CURVE_STEPPERS = {
+    "euler": (_euler_step, 1, False),
+    "semi_implicit_euler": (_semi_implicit_euler_step, 1, False),
+    "rk4": (_rk4_step, 4, False),
+    "dopri5": (_dopri5_step, 5, True),
+}
+
+

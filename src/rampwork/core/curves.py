@@ -1,0 +1,128 @@
+"""Jitted planar curve families (docs/physics.md §5): the frame of r(p) at a point.
+
+A curve is ``r(p) = (X(p), Y(p))`` with a regular position parameter ``p``:
+the arc length ``s`` for the families here (``p = s``), ``x`` for a ramp
+``y = f(x)`` wrapped as a curve.  Every family NAME has two functions with one
+fixed signature, which the curve kernel (``curve_kernel.py``) inlines:
+
+* ``NAME_frame(p, p0, p1, p2, p3, shared) -> (sin_phi, cos_phi, kappa, dp_ds)``:
+  the unit tangent ``(cos phi, sin phi)``, the signed curvature
+  ``kappa = dphi/ds`` and ``dp/ds = 1 / |r'(p)|`` (exactly 1.0 in arc length,
+  so that ``u * dp_ds`` rounds to ``u``);
+* ``NAME_point(p, p0, p1, p2, p3, shared) -> (X, Y)``.
+
+``p0..p3`` are the family's shape parameters in the order of
+:mod:`rampwork.curves`.  No function here divides by ``cos phi``: a vertical
+tangent is an ordinary point.  The cycloid's cusp has infinite curvature
+(``kappa = inf`` at ``s = 0``); ``curve_kernel.normal_along_n`` gives it no
+force at rest.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .jit import fma, jit
+
+# ---------------------------------------------------------------------------
+# loop: a circle of radius R = p0, centre (0, R), bottom at the origin;
+# p = s = R theta with theta the angle from the bottom, counter-clockwise, so
+# phi = theta and the left normal points to the centre (the inside).
+
+
+@jit
+def loop_frame(p, p0, p1, p2, p3, shared):
+    theta = p / p0
+    return math.sin(theta), math.cos(theta), 1.0 / p0, 1.0
+
+
+@jit
+def loop_point(p, p0, p1, p2, p3, shared):
+    theta = p / p0
+    half = math.sin(0.5 * theta)
+    return p0 * math.sin(theta), 2.0 * p0 * (half * half)  # R (1 - cos theta), no cancellation
+
+
+# ---------------------------------------------------------------------------
+# quarter pipe: a flat of length L = p1 along y = 0 from the origin, then a
+# quarter circle of radius R = p0 curving up to a vertical tangent at
+# s = L + pi R / 2.  The curvature jumps from 0 to 1/R at s = L: a joint.
+#
+# A family with a joint reads p3 as the branch, which the kernel sets per
+# step (curve_kernel.JOINTS): 0.0 decides by p; -1.0 the piece before the
+# joint and +1.0 the one after, each continued smoothly past it, so that no
+# stage of a step that ends at the joint sees the other piece, and a step
+# that starts on the joint sees the piece it moves into.
+
+
+@jit
+def quarter_pipe_frame(p, p0, p1, p2, p3, shared):
+    curved = p > p1 if p3 == 0.0 else p3 > 0.0
+    theta = (p - p1) / p0 if curved else 0.0
+    return math.sin(theta), math.cos(theta), 1.0 / p0 if curved else 0.0, 1.0
+
+
+@jit
+def quarter_pipe_point(p, p0, p1, p2, p3, shared):
+    theta = max(p - p1, 0.0) / p0
+    half = math.sin(0.5 * theta)
+    return min(p, p1) + p0 * math.sin(theta), 2.0 * p0 * (half * half)
+
+
+# ---------------------------------------------------------------------------
+# brachistochrone cycloid from its cusp: X = r (t - sin t), Y = -r (1 - cos t),
+# r = p0, rolling angle t in [0, t_end].  Its arc length s = 4 r (1 - cos(t/2))
+# inverts in closed form: with w = s / (4 r), cos(t/2) = 1 - w, so
+# sin phi = -cos(t/2) = w - 1 and cos phi = sin(t/2) = sqrt(w (2 - w)), and
+# kappa = 1 / (4 r sin(t/2)).  The tangent is vertical (down) at the cusp.
+
+
+@jit
+def cycloid_cusp_frame(p, p0, p1, p2, p3, shared):
+    w = p / (4.0 * p0)
+    cos_phi = math.sqrt(w * (2.0 - w))
+    return w - 1.0, cos_phi, 1.0 / (4.0 * p0 * cos_phi), 1.0
+
+
+@jit
+def cycloid_cusp_point(p, p0, p1, p2, p3, shared):
+    w = p / (4.0 * p0)
+    sin_half = math.sqrt(w * (2.0 - w))
+    t = 2.0 * math.atan2(sin_half, 1.0 - w)
+    return p0 * (t - 2.0 * sin_half * (1.0 - w)), -2.0 * p0 * (w * (2.0 - w))
+
+
+# ---------------------------------------------------------------------------
+# a ramp y = f(x) as a curve, p = x: templates whose ``ramp_slope_curvature``
+# and ``ramp_height`` are a ramp family's (bound by ``jit.specialise``).
+ramp_slope_curvature = ramp_height = None
+
+
+def graph_frame(p, p0, p1, p2, p3, shared):
+    """|r'| = sqrt(1 + f'^2): tangent (1, f') / |r'|, kappa = f'' / |r'|^3."""
+    fp, fpp = ramp_slope_curvature(p, p0, p1, p2, p3, shared)
+    w = fma(fp, fp, 1.0)
+    inverse = 1.0 / math.sqrt(w)
+    return fp * inverse, inverse, fpp * (inverse / w), inverse
+
+
+def graph_point(p, p0, p1, p2, p3, shared):
+    return p, ramp_height(p, p0, p1, p2, p3, shared)
+
+
+def evaluate_template(p, p0, p1, p2, p3, shared, out):
+    """Frame and point at every ``p`` (rows of ``out``: sin phi, cos phi,
+    kappa, dp/ds, X, Y), with the kernel's own functions (``curve_frame``,
+    ``curve_point`` bound by ``jit.specialise``)."""
+    for i in range(p.size):
+        sin_phi, cos_phi, kappa, dp_ds = curve_frame(p[i], p0[i], p1[i], p2[i], p3[i], shared)
+        x, y = curve_point(p[i], p0[i], p1[i], p2[i], p3[i], shared)
+        out[0, i] = sin_phi
+        out[1, i] = cos_phi
+        out[2, i] = kappa
+        out[3, i] = dp_ds
+        out[4, i] = x
+        out[5, i] = y
+
+
+curve_frame = curve_point = None  # bound per family by jit.specialise

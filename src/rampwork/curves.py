@@ -1,0 +1,363 @@
+"""Planar curves beyond y = f(x): families, validation and a direct run (docs/physics.md §5).
+
+A :class:`Curve` is a family, its named shape parameters and the side the
+block is on; ``Curve.from_ramp`` wraps any ramp ``y = f(x)`` as a curve
+(position parameter x).  :func:`simulate_curve` runs trajectories on one
+curve with a fixed-step method and returns plain arrays::
+
+    >>> from rampwork.curves import Curve, simulate_curve
+    >>> loop = Curve.create("loop", radius=1.0)
+    >>> out = simulate_curve(loop, s0=0.0, u0=[6.0, 7.5], method="rk4", dt=1e-3)
+    >>> out["status_name"]      # too slow: lifted_off; fast enough: exited
+    array(['lifted_off', 'exited'], dtype='<U10')
+
+Scene files (``[curve]``), sweeps through :func:`rampwork.simulate` and
+DOP853 on curves are not there yet (docs/physics.md §5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from . import validate
+from .core import curve_kernel, curves as core_curves
+from .core.jit import specialise
+from .core.status import STATUS_NAMES
+from .errors import ConfigError
+from .ramps import ParameterSpec, Ramp
+
+TWO_PI = 2.0 * math.pi
+#: the sides a block can be on: the one the left normal N points to, or the other
+SIDES = {"left": 1.0, "right": -1.0}
+CONTACTS = ("one_sided", "two_sided")
+
+
+def _p(name, units, long_name, constraint="finite", default=None):
+    return ParameterSpec(name, units, long_name, constraint, default)
+
+
+class CurveFamily:
+    """A curve shape: its parameters, jitted frame and point, the domain of
+    its position parameter and the checks of its values."""
+
+    def __init__(self, name, description, parameters, frame, point, domain, *, side="left",
+                 position="s", check=None, key=None, cacheable=True, joint=None):
+        self.name = name
+        self.description = description
+        self.parameters = tuple(parameters)
+        self.frame = frame
+        self.point = point
+        self._domain = domain  # (arrays by name) -> (p_lo, p_hi) arrays
+        self.side = side
+        self.position = position  # what p is: "s" (arc length) or "x"
+        self._check = check
+        self._joint = joint  # (arrays by name) -> the joint's p (NaN: none), or None
+        self.key = key or name
+        self.cacheable = cacheable
+        self._evaluator = None
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    def arrays(self, values: Mapping) -> dict[str, np.ndarray]:
+        """The parameters as float arrays, each checked (names the parameter,
+        the value and what is allowed)."""
+        unknown = [k for k in values if k not in self.parameter_names]
+        if unknown:
+            raise ConfigError(f"curve.{unknown[0]}", f"unknown parameter for curve family "
+                              f"{self.name!r}; allowed: {', '.join(self.parameter_names) or '(none)'}")
+        arrays = {}
+        for spec in self.parameters:
+            where = f"curve.{spec.name}"
+            if spec.name in values:
+                array = np.atleast_1d(np.asarray(values[spec.name]))
+                if array.dtype.kind not in "iuf":
+                    raise ConfigError(where, f"expected numbers, got {values[spec.name]!r}")
+                array = array.astype(np.float64)
+            elif spec.default is not None:
+                array = np.array([spec.default])
+            else:
+                raise ConfigError(where, f"required by curve family {self.name!r} "
+                                  f"({spec.long_name}, {spec.units})")
+            bad = ~np.isfinite(array) | ((array <= 0) if spec.constraint == "positive" else False)
+            if bad.any():
+                allowed = "a number > 0" if spec.constraint == "positive" else "a finite number"
+                raise ConfigError(where, f"must be {allowed}, got {float(array[bad][0])!r}")
+            arrays[spec.name] = array
+        if self._check is not None:
+            self._check(arrays)
+        return arrays
+
+    def joint(self, arrays) -> np.ndarray | None:
+        """Where the curvature jumps (steps end there), NaN where it does not;
+        None for a family without joints."""
+        return None if self._joint is None else np.asarray(self._joint(arrays), dtype=np.float64)
+
+    def domain(self, arrays) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self._domain(arrays)
+        return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+
+
+def _check_loop(a):
+    entry, exit_ = a["entry_angle"], a["exit_angle"]
+    entry, exit_ = np.broadcast_arrays(entry, exit_)
+    bad = ~(exit_ > entry)
+    if bad.any():
+        raise ConfigError("curve.exit_angle", f"must be > entry_angle, got exit_angle "
+                          f"{float(exit_[bad][0])!r} and entry_angle {float(entry[bad][0])!r}")
+    bad = exit_ - entry > TWO_PI * (1 + 1e-15)
+    if bad.any():
+        raise ConfigError("curve.exit_angle", "the arc may turn at most once (exit_angle - "
+                          f"entry_angle <= 2 pi, a longer arc crosses itself), got "
+                          f"{float(exit_[bad][0] - entry[bad][0])!r} rad")
+
+
+def _check_quarter_pipe(a):
+    bad = a["flat_length"] < 0
+    if bad.any():
+        raise ConfigError("curve.flat_length", f"must be >= 0, got {float(a['flat_length'][bad][0])!r}")
+
+
+def _check_brachistochrone(a):
+    t_end = a["end_angle"]
+    bad = ~((t_end > 0) & (t_end <= TWO_PI))
+    if bad.any():
+        raise ConfigError("curve.end_angle", "the rolling circle's angle at the end must be in "
+                          f"(0, 2 pi] (pi: the bottom; 2 pi: the next cusp), got {float(t_end[bad][0])!r}")
+
+
+FAMILIES: dict[str, CurveFamily] = {
+    "loop": CurveFamily(
+        "loop", "circle of radius R, centre (0, R): s = R theta, theta the angle from the "
+        "bottom, counter-clockwise; the block inside (side left)",
+        (_p("radius", "m", "radius of the loop", "positive"),
+         _p("entry_angle", "rad", "angle from the bottom where the arc starts", default=0.0),
+         _p("exit_angle", "rad", "angle from the bottom where the arc ends", default=TWO_PI)),
+        core_curves.loop_frame, core_curves.loop_point,
+        lambda a: (a["radius"] * a["entry_angle"], a["radius"] * a["exit_angle"]),
+        check=_check_loop),
+    "quarter_pipe": CurveFamily(
+        "quarter_pipe", "a flat of length L from the origin, then a quarter circle of radius R "
+        "curving up to a vertical tangent (curvature jumps from 0 to 1/R at s = L)",
+        (_p("radius", "m", "radius of the quarter circle", "positive"),
+         _p("flat_length", "m", "length of the flat before it", default=0.0)),
+        core_curves.quarter_pipe_frame, core_curves.quarter_pipe_point,
+        lambda a: (np.zeros_like(a["radius"] + a["flat_length"]),
+                   a["flat_length"] + 0.5 * math.pi * a["radius"]),
+        check=_check_quarter_pipe,
+        joint=lambda a: a["flat_length"] + 0 * a["radius"]),  # at 0 too: a start there
+    "brachistochrone": CurveFamily(
+        "brachistochrone", "cycloid from its cusp at the origin: X = r (t - sin t), "
+        "Y = -r (1 - cos t), t in [0, end_angle]; s = 4 r (1 - cos(t/2)), vertical at the cusp",
+        (_p("radius", "m", "radius of the rolling circle", "positive"),
+         _p("end_angle", "rad", "rolling angle at the end (pi: the bottom)", default=math.pi)),
+        core_curves.cycloid_cusp_frame, core_curves.cycloid_cusp_point,
+        lambda a: (np.zeros_like(a["radius"] + a["end_angle"]),
+                   4.0 * a["radius"] * (1.0 - np.cos(0.5 * a["end_angle"]))),
+        check=_check_brachistochrone),
+}
+
+_GRAPH_FAMILIES: dict[str, CurveFamily] = {}
+
+
+def _graph_family(ramp: Ramp) -> CurveFamily:
+    """The curve family of a ramp family y = f(x) (position parameter x)."""
+    spec = ramp.spec
+    key = f"graph_{spec.key}"
+    if key not in _GRAPH_FAMILIES or not spec.cacheable:
+        options = {} if spec.cacheable else {"cache": False}
+        constants = {"ramp_slope_curvature": spec.slope_curvature, "ramp_height": spec.height}
+        frame = specialise(core_curves.graph_frame, f"curve_{key}_frame", constants, **options)
+        point = specialise(core_curves.graph_point, f"curve_{key}_point", constants, **options)
+        family = CurveFamily(key, f"the ramp family {spec.name!r} as a curve (p = x)",
+                             spec.parameters, frame, point, None, position="x", key=key,
+                             cacheable=spec.cacheable)
+        if not spec.cacheable:
+            return family
+        _GRAPH_FAMILIES[key] = family
+    return _GRAPH_FAMILIES[key]
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One curve: a family, its parameters (defaults applied), the side the
+    block is on (``"left"``: the side the left normal points to, the family's
+    default; ``"right"``: the other) and, for a wrapped ramp, the ramp."""
+
+    family: str
+    params: tuple[tuple[str, float], ...]
+    side: str = "left"
+    ramp: Ramp | None = field(default=None, repr=False)
+
+    @classmethod
+    def create(cls, family: str, side: str | None = None, **params) -> "Curve":
+        if not isinstance(family, str) or family not in FAMILIES:
+            raise ConfigError("curve.family", f"unknown curve family {family!r}; allowed: "
+                              f"{', '.join(map(repr, FAMILIES))} (and a ramp via Curve.from_ramp)")
+        spec = FAMILIES[family]
+        arrays = spec.arrays(params)
+        for name, array in arrays.items():
+            if array.size != 1:
+                raise ConfigError(f"curve.{name}", "one value here; sweep it through "
+                                  "simulate_curve's keyword arguments")
+        side = spec.side if side is None else validate.choice("curve.side", side, tuple(SIDES))
+        return cls(family, tuple((name, float(a[0])) for name, a in arrays.items()), side)
+
+    @classmethod
+    def from_ramp(cls, ramp: Ramp) -> "Curve":
+        """A ramp y = f(x) as a curve: X = x, Y = f(x), the block on top."""
+        if not isinstance(ramp, Ramp):
+            raise ConfigError("curve", f"expected a rampwork.Ramp, got {type(ramp).__name__}")
+        return cls(f"graph_{ramp.spec.key}", ramp.params, "left", ramp)
+
+    @property
+    def spec(self) -> CurveFamily:
+        return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
+
+    def domain(self, **overrides) -> tuple[np.ndarray, np.ndarray]:
+        """(p_lo, p_hi) of the position parameter."""
+        if self.ramp is not None:
+            return np.array([self.ramp.domain[0]]), np.array([self.ramp.domain[1]])
+        return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
+
+    def evaluate(self, p) -> dict[str, np.ndarray]:
+        """sin_phi, cos_phi, kappa, dp_ds, X, Y at the positions ``p``, by the
+        kernel's own functions."""
+        spec = self.spec
+        if spec._evaluator is None:
+            spec._evaluator = specialise(
+                core_curves.evaluate_template, f"curve_evaluate_{spec.key}",
+                {"curve_frame": spec.frame, "curve_point": spec.point},
+                **({} if spec.cacheable else {"cache": False}))
+        p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=np.float64)).ravel())
+        packed = [np.full(p.size, v) for _, v in self.params] + [np.zeros(p.size)] * (4 - len(self.params))
+        out = np.empty((6, p.size))
+        shared = self.ramp.shared_array() if self.ramp is not None else np.zeros(1)
+        spec._evaluator(p, *packed, shared, out)
+        return dict(zip(("sin_phi", "cos_phi", "kappa", "dp_ds", "X", "Y"), out))
+
+
+_KERNELS: dict = {}
+
+
+def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, friction: bool,
+                     drag_linear: bool, drag_quadratic: bool, joints: bool):
+    """The compiled batch function for these choices (built once per process)."""
+    key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic, joints)
+    if key not in _KERNELS or not spec.cacheable:
+        kernel = curve_kernel.build_curve_kernel(
+            spec.key, spec.frame, spec.point, method, one_sided=one_sided, friction=friction,
+            drag_linear=drag_linear, drag_quadratic=drag_quadratic, joints=joints,
+            cache=spec.cacheable)
+        if not spec.cacheable:
+            return kernel
+        _KERNELS[key] = kernel
+    return _KERNELS[key]
+
+
+def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1.0,
+                   method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
+                   rtol: float = 1e-6, atol: float | None = None,
+                   contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
+                   **shape) -> dict[str, np.ndarray]:
+    """Trajectories on ``curve``: every argument given as an array is swept
+    (the arrays broadcast together, as do shape parameters given by name).
+
+    ``s0``: the start's position parameter (the arc length for the curve
+    families; x for a wrapped ramp); ``u0``: the signed speed along the
+    curve (> 0: towards larger s).  ``mu_s`` defaults to ``mu_k``.
+    ``method``: ``euler``, ``semi_implicit_euler``, ``rk4`` (steps of
+    ``dt``) or ``dopri5`` (its first step ``dt``, then a local error of p, u
+    and the friction work below ``atol + rtol |value|``; ``atol`` defaults
+    to ``rtol``).  Returns
+    arrays of the broadcast shape: ``status`` (codes of
+    ``rampwork.STATUS_TABLE``), ``status_name`` and
+    ``curve_kernel.OUTPUTS`` (``p_end``: the end's position parameter;
+    ``nu_min``: the smallest normal force on the block's side along the way,
+    in N; ``curvature_mean``: ∫ kappa |ds| / ∫ |ds|)."""
+    if not isinstance(curve, Curve):
+        raise ConfigError("curve", f"expected a rampwork.curves.Curve, got {type(curve).__name__}")
+    if method not in curve_kernel.CURVE_STEPPERS:
+        raise ConfigError("integrator.method", f"curves run with "
+                          f"{', '.join(curve_kernel.CURVE_STEPPERS)}; got {method!r}")
+    validate.choice("contact", contact, CONTACTS)
+    dt = validate.positive("integrator.dt", dt)
+    t_max = validate.positive("t_max", t_max)
+    rtol = validate.positive("integrator.rtol", rtol)
+    atol = rtol if atol is None else validate.positive("integrator.atol", atol)
+    spec = curve.spec
+    if curve.ramp is not None and shape:
+        raise ConfigError(f"curve.{next(iter(shape))}", "sweep a wrapped ramp's parameters "
+                          "with rampwork.simulate on the ramp")
+    arrays = spec.arrays({**dict(curve.params), **shape}) if curve.ramp is None else {
+        name: np.array([value]) for name, value in curve.params}
+    scalars = {}
+    for name, value in (("s0", s0), ("u0", u0), ("mu_k", mu_k), ("mu_s", mu_k if mu_s is None else mu_s),
+                        ("g", g), ("m", m), ("drag_linear", drag_linear),
+                        ("drag_quadratic", drag_quadratic)):
+        array = np.asarray(value, dtype=np.float64)
+        if not np.isfinite(array).all():
+            raise ConfigError(name, f"must be finite, got {value!r}")
+        scalars[name] = array
+    for name in ("mu_k", "m", "drag_linear", "drag_quadratic"):
+        if (scalars[name] < 0).any():
+            raise ConfigError(name, f"must be >= 0, got {float(scalars[name].min())!r}")
+    if (scalars["g"] <= 0).any() or (scalars["m"] <= 0).any():
+        raise ConfigError("g" if (scalars["g"] <= 0).any() else "m", "must be > 0")
+    if (scalars["mu_s"] < scalars["mu_k"]).any():
+        raise ConfigError("mu_s", "must be >= mu_k")
+    shape_out = np.broadcast_shapes(*(a.shape for a in scalars.values()),
+                                    *(a.shape if a.size > 1 else () for a in arrays.values()))
+    n = int(np.prod(shape_out, dtype=np.int64))
+    flat = {k: np.broadcast_to(v, shape_out).ravel() for k, v in scalars.items()}
+    params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
+              for a in arrays.values()]
+    joint = None
+    if curve.ramp is not None:
+        p_lo = np.full(n, curve.ramp.domain[0])
+        p_hi = np.full(n, curve.ramp.domain[1])
+        shared = curve.ramp.shared_array()
+    else:
+        lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
+        p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
+        shared = np.zeros(1)
+        joint = spec.joint({k: a for k, a in zip(arrays, params)})
+    joints = joint is not None and bool(np.isfinite(joint).any())
+    start = flat["s0"]
+    off = ~((start >= p_lo) & (start <= p_hi))
+    if off.any():
+        i = int(np.argmax(off))
+        raise ConfigError("s0", f"the start must lie on the curve, in [{p_lo[i]!r}, {p_hi[i]!r}] "
+                          f"({spec.position}), got {start[i]!r}")
+    if curve.family == "brachistochrone":
+        cusp_friction = (start == 0.0) & (flat["mu_k"] > 0.0)
+        if cusp_friction.any():
+            raise ConfigError("s0", "a start exactly at the cusp (s0 = 0) with friction is not "
+                              "supported yet: the curvature is infinite there (start at s0 > 0)")
+    inputs = np.zeros((len(curve_kernel.INPUTS), n))
+    for row, values in ((curve_kernel.I_P, start), (curve_kernel.I_U, flat["u0"]),
+                        (curve_kernel.I_MUK, flat["mu_k"]), (curve_kernel.I_MUS, flat["mu_s"]),
+                        (curve_kernel.I_G, flat["g"]), (curve_kernel.I_M, flat["m"]),
+                        (curve_kernel.I_LO, p_lo), (curve_kernel.I_HI, p_hi),
+                        (curve_kernel.I_B, flat["drag_linear"]),
+                        (curve_kernel.I_C, flat["drag_quadratic"]),
+                        (curve_kernel.I_JOINT, np.broadcast_to(joint, (n,)) if joints else np.nan)):
+        inputs[row] = values
+    for k, values in enumerate(params):
+        inputs[curve_kernel.I_S0 + k] = values
+    kernel = curve_kernel_for(spec, method, one_sided=contact == "one_sided",
+                              friction=bool((flat["mu_k"] > 0).any()),
+                              drag_linear=bool((flat["drag_linear"] > 0).any()),
+                              drag_quadratic=bool((flat["drag_quadratic"] > 0).any()),
+                              joints=joints)
+    out, status = curve_kernel.empty_outputs(n)
+    kernel(inputs, shared, dt, t_max, SIDES[curve.side], rtol, atol, out, status)
+    result = {name: out[k].reshape(shape_out) for k, name in enumerate(curve_kernel.OUTPUTS)}
+    result["status"] = status.reshape(shape_out)
+    result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(shape_out)
+    return result
