@@ -28,7 +28,7 @@ import types
 import numpy as np
 
 from .jit import specialise
-from .ramps import SLOPE_CURVATURE_NEAR
+from .ramps import SLOPE_CURVATURE_NEAR, SLOPE_CURVATURE_SHORT
 
 #: the choices a general kernel reads at run time, in the order of their
 #: slots (``settings[SET_RUNTIME + k]``, copied into the lane array)
@@ -44,8 +44,9 @@ MAXIMAL = {"ONE_SIDED": True, "CHECK_CONTACT": True, "PAPER_CRITERION": True,
 #: flags a template without the lane array may not read: their maximal value
 #: would change its results
 LANES_ONLY = ("ONE_SIDED", "PAPER_CRITERION", "CONSTANT_CURVATURE", "LINEAR_EVENTS")
-#: slots at the head of ``shared``: the family id and the fixed-step method id
-SHARED_HEADER = 2
+#: slots at the head of ``shared``: the family id, the fixed-step method id and
+#: whether the plan bounds every step's angle (``KernelVariant.short_stages``)
+SHARED_HEADER = 3
 #: most ramp families a general kernel switches between
 MAX_FAMILIES = 8
 
@@ -138,11 +139,13 @@ def build_switches(families, *, cache: bool = True):
     """``(height, slope_curvature, slope_curvature_near)`` switching by
     ``shared[0]`` between ``families``, a sequence of ``(key, height,
     slope_curvature)`` (family k has id k; at most :data:`MAX_FAMILIES`).
-    ``slope_curvature_near`` is RK4's stage evaluation
-    (``steppers.ramp_slope_curvature_near``): the family's own where it has
-    one (``ramps.SLOPE_CURVATURE_NEAR``), so that the general kernel rounds
-    as the specialised one, else its f', f'' evaluated afresh; it is
-    registered as the slope switch's."""
+    ``slope_curvature_near`` is the evaluation at a step's stage points and
+    end from its start (``steppers.ramp_slope_curvature_near``): the
+    family's own where it has one (``ramps.SLOPE_CURVATURE_NEAR``, or its
+    short form ``ramps.SLOPE_CURVATURE_SHORT`` where ``shared[2]`` says the
+    plan chose it), so that the general kernel rounds as the specialised
+    one, else its f', f'' evaluated afresh; it is registered as the slope
+    switch's."""
     families = tuple(families)
     if not 0 < len(families) <= MAX_FAMILIES:
         raise ValueError(f"a general kernel switches between 1 to {MAX_FAMILIES} families, "
@@ -157,13 +160,20 @@ def build_switches(families, *, cache: bool = True):
         switches.append(specialise(_switch_family, f"switch_{label}_{name}", constants,
                                    cache=cache, **internal))
     near = {}
+    short = {}
     for k, (key, _, slope_curvature) in enumerate(padded):
-        near[f"FAMILY_{k}"] = SLOPE_CURVATURE_NEAR.get(slope_curvature) or specialise(
+        stage = SLOPE_CURVATURE_NEAR.get(slope_curvature) or specialise(
             _near_afresh, f"near_afresh_{key}", {"SLOPE_CURVATURE": slope_curvature},
             cache=cache, **internal)
+        near[f"FAMILY_{k}"] = stage
+        short[f"FAMILY_{k}"] = SLOPE_CURVATURE_SHORT.get(slope_curvature, stage)
+    switch_near, switch_short = (
+        specialise(_switch_near, f"switch_{label}_{name}", {"SHARED_HEADER": SHARED_HEADER, **table},
+                   cache=cache, **internal)
+        for label, table in (("near", near), ("short", short)))
     SLOPE_CURVATURE_NEAR[switches[1]] = specialise(
-        _switch_near, f"switch_near_{name}", {"SHARED_HEADER": SHARED_HEADER, **near},
-        cache=cache, **internal)
+        _switch_stage_kind, f"switch_stage_kind_{name}",
+        {"SHORT_SWITCH": switch_short, "NEAR_SWITCH": switch_near}, cache=cache, **internal)
     return tuple(switches)
 
 
@@ -195,13 +205,20 @@ def _switch_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     return FAMILY_7(x, dx, fp, fpp, p0, p1, p2, p3, data)
 
 
-def shared_header(family_id: int, method_id: int) -> np.ndarray:
+def _switch_stage_kind(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    """The stage evaluation the plan chose (shared[2]: its short form)."""
+    if shared[2] != 0.0:
+        return SHORT_SWITCH(x, dx, fp, fpp, p0, p1, p2, p3, shared)
+    return NEAR_SWITCH(x, dx, fp, fpp, p0, p1, p2, p3, shared)
+
+
+def shared_header(family_id: int, method_id: int, short_stages: bool = False) -> np.ndarray:
     """The head of a general kernel's ``shared`` array (then the family's own)."""
-    return np.array([float(family_id), float(method_id)])
+    return np.array([float(family_id), float(method_id), float(short_stages)])
 
 
 # bound by the builders
 N_RUNTIME = len(RUNTIME_FLAGS)
 RUNTIME_BASE = SET_RUNTIME = 0
 (FAMILY_0, FAMILY_1, FAMILY_2, FAMILY_3, FAMILY_4, FAMILY_5, FAMILY_6, FAMILY_7,
- STEP_0, STEP_1, STEP_2) = (None,) * 11
+ STEP_0, STEP_1, STEP_2, SHORT_SWITCH, NEAR_SWITCH) = (None,) * 13
