@@ -160,56 +160,60 @@ def build_switches(families, *, cache: bool = True):
         switches.append(specialise(_switch_family, f"switch_{label}_{name}", constants,
                                    cache=cache, **internal))
     near = {}
-    short = {}
     for k, (key, _, slope_curvature) in enumerate(padded):
-        stage = SLOPE_CURVATURE_NEAR.get(slope_curvature) or specialise(
-            _near_afresh, f"near_afresh_{key}", {"SLOPE_CURVATURE": slope_curvature},
-            cache=cache, **internal)
-        near[f"FAMILY_{k}"] = stage
-        short[f"FAMILY_{k}"] = SLOPE_CURVATURE_SHORT.get(slope_curvature, stage)
-    switch_near, switch_short = (
-        specialise(_switch_near, f"switch_{label}_{name}", {"SHARED_HEADER": SHARED_HEADER, **table},
-                   cache=cache, **internal)
-        for label, table in (("near", near), ("short", short)))
+        if slope_curvature in SLOPE_CURVATURE_NEAR:
+            near[f"FAMILY_{k}"] = specialise(
+                _stage_kind, f"stage_kind_{key}",
+                {"SHARED_HEADER": SHARED_HEADER, "NEAR": SLOPE_CURVATURE_NEAR[slope_curvature],
+                 "SHORT": SLOPE_CURVATURE_SHORT.get(slope_curvature,
+                                                    SLOPE_CURVATURE_NEAR[slope_curvature])},
+                cache=cache, **internal)
+        else:
+            near[f"FAMILY_{k}"] = specialise(
+                _near_afresh, f"near_afresh_{key}",
+                {"SHARED_HEADER": SHARED_HEADER, "SLOPE_CURVATURE": slope_curvature},
+                cache=cache, **internal)
     SLOPE_CURVATURE_NEAR[switches[1]] = specialise(
-        _switch_stage_kind, f"switch_stage_kind_{name}",
-        {"SHORT_SWITCH": switch_short, "NEAR_SWITCH": switch_near}, cache=cache, **internal)
+        _switch_near, f"switch_near_{name}", {"SHARED_HEADER": SHARED_HEADER, **near},
+        cache=cache, **internal)
     return tuple(switches)
 
 
 SLOPE_CURVATURE = None  # bound by build_switches
 
 
-def _near_afresh(x, dx, fp, fpp, p0, p1, p2, p3, data):
+def _near_afresh(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     """A family's f', f'' at a stage point, evaluated afresh."""
-    return SLOPE_CURVATURE(x, p0, p1, p2, p3, data)
+    return SLOPE_CURVATURE(x, p0, p1, p2, p3, shared[SHARED_HEADER:])
 
 
+def _stage_kind(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    """A family's own stage evaluation, in the form the plan chose
+    (shared[2]: the short form, ``KernelVariant.short_stages``)."""
+    data = shared[SHARED_HEADER:]
+    if shared[2] != 0.0:
+        return SHORT(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    return NEAR(x, dx, fp, fpp, p0, p1, p2, p3, data)
+
+
+# the whole ``shared`` to the family's entry (the stage kind is in its header)
 def _switch_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     family = shared[0]
-    data = shared[SHARED_HEADER:]
     if family == 0.0:
-        return FAMILY_0(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_0(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 1.0:
-        return FAMILY_1(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_1(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 2.0:
-        return FAMILY_2(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_2(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 3.0:
-        return FAMILY_3(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_3(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 4.0:
-        return FAMILY_4(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_4(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 5.0:
-        return FAMILY_5(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_5(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 6.0:
-        return FAMILY_6(x, dx, fp, fpp, p0, p1, p2, p3, data)
-    return FAMILY_7(x, dx, fp, fpp, p0, p1, p2, p3, data)
-
-
-def _switch_stage_kind(x, dx, fp, fpp, p0, p1, p2, p3, shared):
-    """The stage evaluation the plan chose (shared[2]: its short form)."""
-    if shared[2] != 0.0:
-        return SHORT_SWITCH(x, dx, fp, fpp, p0, p1, p2, p3, shared)
-    return NEAR_SWITCH(x, dx, fp, fpp, p0, p1, p2, p3, shared)
+        return FAMILY_6(x, dx, fp, fpp, p0, p1, p2, p3, shared)
+    return FAMILY_7(x, dx, fp, fpp, p0, p1, p2, p3, shared)
 
 
 def shared_header(family_id: int, method_id: int, short_stages: bool = False) -> np.ndarray:
@@ -221,4 +225,4 @@ def shared_header(family_id: int, method_id: int, short_stages: bool = False) ->
 N_RUNTIME = len(RUNTIME_FLAGS)
 RUNTIME_BASE = SET_RUNTIME = 0
 (FAMILY_0, FAMILY_1, FAMILY_2, FAMILY_3, FAMILY_4, FAMILY_5, FAMILY_6, FAMILY_7,
- STEP_0, STEP_1, STEP_2, SHORT_SWITCH, NEAR_SWITCH) = (None,) * 13
+ STEP_0, STEP_1, STEP_2, SHORT, NEAR) = (None,) * 13
