@@ -137,7 +137,8 @@ def tier_shared(plan: RunPlan, tier: str) -> np.ndarray:
         return shared
     method = plan.variant.method
     method_id = list(STEPPERS).index(method) if method in STEPPERS else 0
-    header = general.shared_header(GENERAL_FAMILIES.index(plan.scene.ramp.spec.key), method_id)
+    header = general.shared_header(GENERAL_FAMILIES.index(plan.scene.ramp.spec.key), method_id,
+                                   plan.variant.short_stages)
     return np.concatenate([header, shared])
 
 

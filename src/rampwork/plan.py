@@ -18,6 +18,7 @@ import numpy as np
 from . import schema
 from .core import kernel as K
 from .core import reduce
+from .core.steppers import STEPPERS as FIXED_STEP_METHODS
 from .core.variant import CLOSED_FORM, KernelVariant
 from .errors import ClosedFormNotice, ConfigError, option, warn
 from .scene import Integrator, Scene, Sweep
@@ -179,16 +180,33 @@ def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
     if paper_criterion and (drag_linear or drag_quadratic):
         raise ConfigError("diagnostics", "x_lift_off_paper (the paper's eq. 26) is defined for "
                           "friction without air drag; remove the drag or the diagnostic")
+    method = CLOSED_FORM if closed_form else scene.integrator.method
+    short_stages = method in FIXED_STEP_METHODS and _short_stages(scene, axes, values, mu_k)
     variant = KernelVariant(
-        spec.key, CLOSED_FORM if closed_form else scene.integrator.method,
+        spec.key, method,
         one_sided=scene.contact == "one_sided", check_contact=check_contact,
         carry_slope=not spec.cheap_slope, friction=bool(np.max(mu_k) > 0.0),
         drag_linear=drag_linear, drag_quadratic=drag_quadratic, paper_criterion=paper_criterion,
         constant_curvature=spec.constant_curvature,
         # g and the ramp's shape the same for every trajectory (not swept)
         uniform_parameters=not any(name in sweep.names
-                                   for name in ("g",) + spec.parameter_names))
+                                   for name in ("g",) + spec.parameter_names),
+        short_stages=short_stages)
     return RunPlan(scene, sweep, sweep.shape, size, variant)
+
+
+def _short_stages(scene: Scene, axes: dict, values: dict, mu_k) -> bool:
+    """Whether the ramp family's short stage evaluation serves every fixed
+    step of the run (``RampFamily.short_stages``, from the largest starting
+    speed, g, friction and drag of the run)."""
+    def largest(name, default):
+        return float(np.max(np.abs(np.asarray(axes.get(name, (default,)), dtype=float))))
+
+    return scene.ramp.spec.short_stages(
+        values, scene.ramp.domain, dt=scene.integrator.dt, v0=largest("v0", scene.v0),
+        g=largest("g", scene.g), mu=float(np.max(mu_k)),
+        drag_linear=largest("drag_linear", scene.drag.linear),
+        drag_quadratic=largest("drag_quadratic", scene.drag.quadratic))
 
 
 def _note_closed_form(integrator: Integrator) -> None:

@@ -24,6 +24,7 @@ import numpy as np
 
 from . import validate
 from .core import ramps as core
+from .core.layout import ENERGY_RISE_FACTOR
 from .core.vmath import VALID_ARGUMENT as VALID_SINE_ARGUMENT
 from .core.jit import jit, specialise
 from .errors import ConfigError, RenamedParameterWarning, warn
@@ -207,6 +208,15 @@ class RampFamily:
         packed += [np.zeros(n) for _ in range(4 - len(packed))]
         return tuple(packed)
 
+    def short_stages(self, values: Mapping[str, np.ndarray], domain, *, dt: float, v0: float,
+                     g: float, mu: float, drag_linear: float, drag_quadratic: float) -> bool:
+        """Whether fixed steps of size ``dt`` may evaluate f', f'' at their
+        stage points and ends by the short form of the family's evaluation
+        from the step's start (``core.ramps.SLOPE_CURVATURE_SHORT``): only
+        where a bound on every step proves it accurate.  ``v0``, ``g``,
+        ``mu`` and the drag coefficients: the largest magnitudes in the run."""
+        return False
+
     def curvature_sign(self, values: Mapping[str, np.ndarray], domain, shared=None) -> int | None:
         """+1 if f'' >= 0 on the whole domain for all values, -1 if <= 0, 0 if
         f'' == 0 (straight), None if mixed or unknown."""
@@ -313,6 +323,29 @@ class _Sine(RampFamily):
                 f"wavenumber*x + phase reaches {_fmt(theta.ravel()[i])} on the domain [{lo!r}, {hi!r}] with "
                 f"wavenumber = {_fmt(k.ravel()[i])}, phase = {_fmt(phase.ravel()[i])}{_at(k.ravel(), i)}; "
                 f"it must stay within +-{VALID_SINE_ARGUMENT:g} rad (where sin and cos are accurate to 1 ulp)")
+
+    def short_stages(self, values, domain, *, dt, v0, g, mu, drag_linear, drag_quadratic):
+        """|k dx| <= core.ramps.SHORT_STAGE_ANGLE for every step, from a bound
+        on the speed.  The mechanical energy g f + v^2 (1 + f'^2)/2 never
+        grows (friction and drag remove it; the kernel reports a trajectory
+        whose energy rose by ENERGY_RISE_FACTOR of its scale as diverged), so
+        v^2 <= v_e^2 = (1 + ENERGY_RISE_FACTOR) (v0^2 (1 + f'^2) + 2 g (f_max
+        - f_min)).  A stage's speed is at most v_e + dt A, with A a bound on
+        |dv/dt| at speeds up to 2 v_e (held if dt A <= v_e), and every stage
+        point and step end lies within dt times that of the step's start."""
+        m, a, k = (np.abs(np.asarray(values[name], dtype=float))
+                   for name in ("mean_slope", "amplitude", "wavenumber"))
+        lo, hi = domain
+        slope = m + a * k  # bounds |f'|, |f''| and the height range
+        curvature = a * k * k
+        rise = m * (hi - lo) + 2.0 * a
+        v_e = np.sqrt((1.0 + ENERGY_RISE_FACTOR) * (v0 * v0 * (1.0 + slope * slope) + 2.0 * g * rise))
+        fast = 2.0 * v_e
+        # |dv/dt| <= (|f'| |n| + mu |n|) / (1 + f'^2) + drag, |f'| / (1 + f'^2) <= 1/2
+        accel = ((0.5 + mu) * (g + fast * fast * curvature)
+                 + (drag_linear + drag_quadratic * fast * np.sqrt(1.0 + slope * slope)) * fast)
+        angle = k * dt * (v_e + dt * accel)
+        return bool(np.all((dt * accel <= v_e) & (angle <= core.SHORT_STAGE_ANGLE)))
 
     def curvature_sign(self, values, domain, shared=None):
         a = np.asarray(values["amplitude"], dtype=float)

@@ -28,7 +28,7 @@ import types
 import numpy as np
 
 from .jit import specialise
-from .ramps import SLOPE_CURVATURE_NEAR
+from .ramps import SLOPE_CURVATURE_NEAR, SLOPE_CURVATURE_SHORT
 
 #: the choices a general kernel reads at run time, in the order of their
 #: slots (``settings[SET_RUNTIME + k]``, copied into the lane array)
@@ -44,8 +44,9 @@ MAXIMAL = {"ONE_SIDED": True, "CHECK_CONTACT": True, "PAPER_CRITERION": True,
 #: flags a template without the lane array may not read: their maximal value
 #: would change its results
 LANES_ONLY = ("ONE_SIDED", "PAPER_CRITERION", "CONSTANT_CURVATURE", "LINEAR_EVENTS")
-#: slots at the head of ``shared``: the family id and the fixed-step method id
-SHARED_HEADER = 2
+#: slots at the head of ``shared``: the family id, the fixed-step method id and
+#: whether the plan bounds every step's angle (``KernelVariant.short_stages``)
+SHARED_HEADER = 3
 #: most ramp families a general kernel switches between
 MAX_FAMILIES = 8
 
@@ -138,11 +139,13 @@ def build_switches(families, *, cache: bool = True):
     """``(height, slope_curvature, slope_curvature_near)`` switching by
     ``shared[0]`` between ``families``, a sequence of ``(key, height,
     slope_curvature)`` (family k has id k; at most :data:`MAX_FAMILIES`).
-    ``slope_curvature_near`` is RK4's stage evaluation
-    (``steppers.ramp_slope_curvature_near``): the family's own where it has
-    one (``ramps.SLOPE_CURVATURE_NEAR``), so that the general kernel rounds
-    as the specialised one, else its f', f'' evaluated afresh; it is
-    registered as the slope switch's."""
+    ``slope_curvature_near`` is the evaluation at a step's stage points and
+    end from its start (``steppers.ramp_slope_curvature_near``): the
+    family's own where it has one (``ramps.SLOPE_CURVATURE_NEAR``, or its
+    short form ``ramps.SLOPE_CURVATURE_SHORT`` where ``shared[2]`` says the
+    plan chose it), so that the general kernel rounds as the specialised
+    one, else its f', f'' evaluated afresh; it is registered as the slope
+    switch's."""
     families = tuple(families)
     if not 0 < len(families) <= MAX_FAMILIES:
         raise ValueError(f"a general kernel switches between 1 to {MAX_FAMILIES} families, "
@@ -158,9 +161,18 @@ def build_switches(families, *, cache: bool = True):
                                    cache=cache, **internal))
     near = {}
     for k, (key, _, slope_curvature) in enumerate(padded):
-        near[f"FAMILY_{k}"] = SLOPE_CURVATURE_NEAR.get(slope_curvature) or specialise(
-            _near_afresh, f"near_afresh_{key}", {"SLOPE_CURVATURE": slope_curvature},
-            cache=cache, **internal)
+        if slope_curvature in SLOPE_CURVATURE_NEAR:
+            near[f"FAMILY_{k}"] = specialise(
+                _stage_kind, f"stage_kind_{key}",
+                {"SHARED_HEADER": SHARED_HEADER, "NEAR": SLOPE_CURVATURE_NEAR[slope_curvature],
+                 "SHORT": SLOPE_CURVATURE_SHORT.get(slope_curvature,
+                                                    SLOPE_CURVATURE_NEAR[slope_curvature])},
+                cache=cache, **internal)
+        else:
+            near[f"FAMILY_{k}"] = specialise(
+                _near_afresh, f"near_afresh_{key}",
+                {"SHARED_HEADER": SHARED_HEADER, "SLOPE_CURVATURE": slope_curvature},
+                cache=cache, **internal)
     SLOPE_CURVATURE_NEAR[switches[1]] = specialise(
         _switch_near, f"switch_near_{name}", {"SHARED_HEADER": SHARED_HEADER, **near},
         cache=cache, **internal)
@@ -170,38 +182,47 @@ def build_switches(families, *, cache: bool = True):
 SLOPE_CURVATURE = None  # bound by build_switches
 
 
-def _near_afresh(x, dx, fp, fpp, p0, p1, p2, p3, data):
+def _near_afresh(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     """A family's f', f'' at a stage point, evaluated afresh."""
-    return SLOPE_CURVATURE(x, p0, p1, p2, p3, data)
+    return SLOPE_CURVATURE(x, p0, p1, p2, p3, shared[SHARED_HEADER:])
 
 
+def _stage_kind(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    """A family's own stage evaluation, in the form the plan chose
+    (shared[2]: the short form, ``KernelVariant.short_stages``)."""
+    data = shared[SHARED_HEADER:]
+    if shared[2] != 0.0:
+        return SHORT(x, dx, fp, fpp, p0, p1, p2, p3, data)
+    return NEAR(x, dx, fp, fpp, p0, p1, p2, p3, data)
+
+
+# the whole ``shared`` to the family's entry (the stage kind is in its header)
 def _switch_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
     family = shared[0]
-    data = shared[SHARED_HEADER:]
     if family == 0.0:
-        return FAMILY_0(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_0(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 1.0:
-        return FAMILY_1(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_1(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 2.0:
-        return FAMILY_2(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_2(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 3.0:
-        return FAMILY_3(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_3(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 4.0:
-        return FAMILY_4(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_4(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 5.0:
-        return FAMILY_5(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_5(x, dx, fp, fpp, p0, p1, p2, p3, shared)
     if family == 6.0:
-        return FAMILY_6(x, dx, fp, fpp, p0, p1, p2, p3, data)
-    return FAMILY_7(x, dx, fp, fpp, p0, p1, p2, p3, data)
+        return FAMILY_6(x, dx, fp, fpp, p0, p1, p2, p3, shared)
+    return FAMILY_7(x, dx, fp, fpp, p0, p1, p2, p3, shared)
 
 
-def shared_header(family_id: int, method_id: int) -> np.ndarray:
+def shared_header(family_id: int, method_id: int, short_stages: bool = False) -> np.ndarray:
     """The head of a general kernel's ``shared`` array (then the family's own)."""
-    return np.array([float(family_id), float(method_id)])
+    return np.array([float(family_id), float(method_id), float(short_stages)])
 
 
 # bound by the builders
 N_RUNTIME = len(RUNTIME_FLAGS)
 RUNTIME_BASE = SET_RUNTIME = 0
 (FAMILY_0, FAMILY_1, FAMILY_2, FAMILY_3, FAMILY_4, FAMILY_5, FAMILY_6, FAMILY_7,
- STEP_0, STEP_1, STEP_2) = (None,) * 11
+ STEP_0, STEP_1, STEP_2, SHORT, NEAR) = (None,) * 13

@@ -44,7 +44,7 @@ from .physics import (acceleration, acceleration_frictionless, departure_directi
 from . import adaptive as adaptive_parts
 from . import parameters
 from . import steppers
-from .ramps import SLOPE_CURVATURE_NEAR
+from .ramps import SLOPE_CURVATURE_NEAR, SLOPE_CURVATURE_SHORT
 from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 
 # bound per scene by build_kernel (compile-time constants)
@@ -66,6 +66,10 @@ LINEAR_EVENTS = False  # x and v are linear in the step size: events in closed f
 MONOTONE_STEP = False  # a step that keeps d v > 0 moves x in direction d (first-order methods)
 UNIFORM_PARAMETERS = False  # g and the ramp parameters are the run's settings, not per lane
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
+# f', f'' at a step's end from those at its start (the family's stage
+# evaluation, steppers.ramp_slope_curvature_near), where it has one
+STAGE_FROM_START = False
+ramp_slope_curvature_near = None
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
@@ -157,7 +161,12 @@ def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2,
     if DRAG:
         ok = ok & (dwd >= 0.0)  # drag's power is >= 0 within a mode, as friction's
     fp1 = fpp1 = 0.0
-    if CHECK_CONTACT or CARRY_SLOPE:
+    if STAGE_FROM_START and (CHECK_CONTACT or CARRY_SLOPE):
+        # from the start's, as the stages (cheaper than afresh; the start's
+        # are carried, so rounding adds up over a mode's steps, a few ulp
+        # times the root of their count: lanes that stop evaluate afresh)
+        fp1, fpp1 = ramp_slope_curvature_near(x1, x1 - x, fp, fpp, p0, p1, p2, p3, shared)
+    elif CHECK_CONTACT or CARRY_SLOPE:
         fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
     if CHECK_CONTACT:
         ok = ok & (sn * normal_term(v1, fpp1, g) > 0.0)
@@ -936,7 +945,7 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
                 clean = lanes[STOP * LANES + i] == n_substeps
                 if CARRY_SLOPE and not clean:
                     # the vector loop carried f', f'' past the step that stopped
-                    # the lane: the same function at the same x, the same values
+                    # the lane: evaluated afresh at x (as _trace_one does)
                     refresh_slope(lanes, i, shared)
             if clean:
                 # past the speed bound: the step is far too large
@@ -1035,6 +1044,10 @@ def _trace_one(j, inputs, settings, shared, every, trace):
             event = lanes[PENDING * LANES] > 0.0
         else:
             event = replay_lane(lanes, 0, settings, shared, 1) == 0
+            if CARRY_SLOPE and event:
+                # f', f'' afresh at x, as the scan does for a lane the vector
+                # loop stopped: the event is resolved from the same values
+                refresh_slope(lanes, 0, shared)
         stepped = lanes[STEPS * LANES] > before
         if stepped:
             lanes[CASCADE * LANES] = 0.0
@@ -1091,8 +1104,9 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         "ramp_height": ramp_height_fn,
         "ramp_slope_curvature": ramp_slope_curvature_fn,
         "STAGE_FROM_START": ramp_slope_curvature_fn in SLOPE_CURVATURE_NEAR,
-        "ramp_slope_curvature_near": SLOPE_CURVATURE_NEAR.get(ramp_slope_curvature_fn,
-                                                              steppers.no_stage_shortcut),
+        "ramp_slope_curvature_near": (SLOPE_CURVATURE_SHORT if variant.short_stages
+                                      else SLOPE_CURVATURE_NEAR).get(ramp_slope_curvature_fn,
+                                                                     steppers.no_stage_shortcut),
         # the lane array: fixed-step kernels leave out the adaptive bank B
         # (a smaller block stays in the L1 cache)
         "N_LANE_FIELDS": n_lane_fields,

@@ -36,7 +36,8 @@ ramp_slope_curvature = None  # bound per scene by jit.specialise
 # A family may offer f', f'' at a stage point x0 + dx from those at the step's
 # start x0 (cheaper than evaluating them afresh: the sine's angle sum):
 # ``ramp_slope_curvature_near(x, dx, fp0, fpp0, p0, p1, p2, p3, shared)``,
-# x = x0 + dx rounded.  RK4 uses it where STAGE_FROM_START (bound per scene).
+# x = x0 + dx rounded.  RK4 uses it where STAGE_FROM_START (bound per scene), and
+# every fixed-step kernel for its steps' ends (kernel._step_and_check).
 STAGE_FROM_START = False
 ramp_slope_curvature_near = None
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # bound per scene by jit.specialise

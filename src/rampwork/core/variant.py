@@ -40,8 +40,12 @@ class KernelVariant:
     ``paper_criterion`` (record where the paper's eq. 26 first holds);
     ``constant_curvature`` (f'' is the same all along the ramp: no curvature
     integral with fixed steps); ``uniform_parameters`` (g and the ramp
-    parameters are the run's settings, not per lane).  Tuning knobs that do
-    not change results: ``lanes`` per block, ``substeps`` between scalar
+    parameters are the run's settings, not per lane); ``short_stages``
+    (fixed steps on a family that evaluates a step's stage points and end
+    from its start, ``ramps.SLOPE_CURVATURE_NEAR``: the plan has bounded
+    every step's angle, so the family's short form
+    ``ramps.SLOPE_CURVATURE_SHORT`` serves).  Tuning knobs that do not
+    change results: ``lanes`` per block, ``substeps`` between scalar
     passes (default by method kind), ``chains`` (lane-loop halves side by
     side), ``unroll`` (fixed steps per lane visit).
 
@@ -61,6 +65,7 @@ class KernelVariant:
     paper_criterion: bool = False
     constant_curvature: bool = False
     uniform_parameters: bool = False
+    short_stages: bool = False
     lanes: int = 64
     substeps: int | None = None
     chains: int = 2
@@ -94,6 +99,7 @@ class KernelVariant:
             return
         if self.adaptive:
             object.__setattr__(self, "carry_slope", True)  # the last stage evaluates them anyway
+            object.__setattr__(self, "short_stages", False)  # stages evaluated afresh
         if self.substeps is None:
             object.__setattr__(self, "substeps",
                                N_SUBSTEPS_ADAPTIVE if self.adaptive else N_SUBSTEPS)
@@ -153,7 +159,7 @@ class KernelVariant:
             (self.drag_linear, "_dragb"), (self.drag_quadratic, "_dragc"),
             (self.paper_criterion, "_paper"), (not self.friction, "_nofriction"),
             (self.constant_curvature, "_constk"), (self.linear_events, "_lin"),
-            (self.uniform_parameters, "_uniform")) if on)
+            (self.uniform_parameters, "_uniform"), (self.short_stages, "_short")) if on)
         contact = "one" if self.one_sided else "two"
         if self.runtime:
             flags, contact = "", "runtime"
