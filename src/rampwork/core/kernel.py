@@ -90,7 +90,8 @@ PAPER_SAMPLES = 64
 # vector part
 # ------------------------------------------------------------------------------
 def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
-    """``n_substeps`` fixed steps on lanes 0 .. n_active-1.
+    """``n_substeps`` fixed steps on lanes 0 .. n_active-1 (all LANES lanes
+    with ``CHAINS = 2``).
 
     Branch-free per lane so that it vectorises (see :func:`_fixed_step_lane`).
     No step is held back where its event conditions fire: every lane steps
@@ -100,19 +101,21 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
     of its first unclean step.  So the recurrence x, v -> x1, v1, the chain
     of dependent divisions that bounds the loop, carries no event test and
     no select: the tests run beside it.  The first visit reads the lane's
-    own fields (bank 0), later ones the history, at offsets affine in the
-    step index.  The history is an array of its own (``history``): a store
-    to it at such an offset could otherwise be any lane field, which keeps
-    LLVM from vectorising.  With ``CHAINS = 2`` a full block runs its two halves side
-    by side: two independent chains keep the divider busy where one would
-    wait on latency."""
+    own fields and keeps them as bank 0, later ones read the history, at
+    offsets affine in the step index (banks live after the lane fields, in
+    the same array: ``history`` is ``lanes``).  With ``CHAINS = 2`` every
+    visit steps all LANES lanes, empty ones too, in two halves side by side:
+    two independent chains keep the divider busy where one would wait on
+    latency, and loops with a constant trip count get constant offsets that
+    LLVM can prove disjoint (with a run-time count and the history's
+    run-time offsets it would not vectorise)."""
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
     uniform = uniform_parameters(settings)  # see parameters.py
     visits = n_substeps // UNROLL
     # the first visit: from the lane's own fields
-    if CHAINS == 2 and n_active > LANES // 2:
+    if CHAINS == 2 and n_active > 0:
         for i in range(LANES // 2):  # constant offsets: provably disjoint halves
             fixed_step_lane(lanes, lanes, history, i, X, V, W, K, WD, HIST + N_HIST, True, shared,
                             x_lo, x_hi, h, uniform)
@@ -125,7 +128,7 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
     for visit in range(1, visits):
         src = HIST + N_HIST * visit * UNROLL  # the bank after the previous visit's last step
         dst = src + N_HIST
-        if CHAINS == 2 and n_active > LANES // 2:
+        if CHAINS == 2 and n_active > 0:
             for i in range(LANES // 2):
                 fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
                                 src + HIST_W, src + HIST_K, src + HIST_WD, dst, False, shared, x_lo,
@@ -1277,6 +1280,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         )
     else:
         add("_with_drag", steppers._with_drag, **no_refcount)
+        add("_with_drag_deceleration", steppers._with_drag_deceleration, **no_refcount)
         if variant.runtime:  # the method by its id in shared[1]
             for k, method in enumerate(STEPPERS.values()):
                 add(f"STEP_{k}", method.step, **no_refcount)

@@ -72,49 +72,55 @@ def semi_implicit_euler_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shar
 
 
 def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
-    """Classical fourth-order Runge-Kutta on (x, v) and the integrals."""
+    """Classical fourth-order Runge-Kutta on (x, v) and the integrals.
+
+    The stages carry the deceleration ``b = -a`` (``n (f' + q) / (1 + f'^2)``,
+    drag's term added) and step with ``fma(-half, b, v)``: the same numbers as
+    ``fma(half, a, v)`` with ``a = -n * (...)`` (a negation is exact, and
+    rounding is symmetric), without the four sign flips per step that the
+    sums of the a's would otherwise need."""
     half = 0.5 * h
     n1 = normal_term(v, fpp, g)
-    a1 = acceleration(n1, fp, q)
+    b1 = -acceleration(n1, fp, q)
     if DRAG:
-        a1, pd1 = _with_drag(a1, v, fp, b, c, d)
+        b1, pd1 = _with_drag_deceleration(b1, v, fp, b, c, d)
 
     x2 = fma(half, v, x)
-    v2 = fma(half, a1, v)
+    v2 = fma(-half, b1, v)
     if STAGE_FROM_START:
         fp2, fpp2 = ramp_slope_curvature_near(x2, half * v, fp, fpp, p0, p1, p2, p3, shared)
     else:
         fp2, fpp2 = ramp_slope_curvature(x2, p0, p1, p2, p3, shared)
     n2 = normal_term(v2, fpp2, g)
-    a2 = acceleration(n2, fp2, q)
+    b2 = -acceleration(n2, fp2, q)
     if DRAG:
-        a2, pd2 = _with_drag(a2, v2, fp2, b, c, d)
+        b2, pd2 = _with_drag_deceleration(b2, v2, fp2, b, c, d)
 
     x3 = fma(half, v2, x)
-    v3 = fma(half, a2, v)
+    v3 = fma(-half, b2, v)
     if STAGE_FROM_START:
         fp3, fpp3 = ramp_slope_curvature_near(x3, half * v2, fp, fpp, p0, p1, p2, p3, shared)
     else:
         fp3, fpp3 = ramp_slope_curvature(x3, p0, p1, p2, p3, shared)
     n3 = normal_term(v3, fpp3, g)
-    a3 = acceleration(n3, fp3, q)
+    b3 = -acceleration(n3, fp3, q)
     if DRAG:
-        a3, pd3 = _with_drag(a3, v3, fp3, b, c, d)
+        b3, pd3 = _with_drag_deceleration(b3, v3, fp3, b, c, d)
 
     x4 = fma(h, v3, x)
-    v4 = fma(h, a3, v)
+    v4 = fma(-h, b3, v)
     if STAGE_FROM_START:
         fp4, fpp4 = ramp_slope_curvature_near(x4, h * v3, fp, fpp, p0, p1, p2, p3, shared)
     else:
         fp4, fpp4 = ramp_slope_curvature(x4, p0, p1, p2, p3, shared)
     n4 = normal_term(v4, fpp4, g)
-    a4 = acceleration(n4, fp4, q)
+    b4 = -acceleration(n4, fp4, q)
     if DRAG:
-        a4, pd4 = _with_drag(a4, v4, fp4, b, c, d)
+        b4, pd4 = _with_drag_deceleration(b4, v4, fp4, b, c, d)
 
     sixth = h / 6.0
     x_new = fma(sixth, v + 2.0 * (v2 + v3) + v4, x)
-    v_new = fma(sixth, a1 + 2.0 * (a2 + a3) + a4, v)
+    v_new = fma(-sixth, b1 + 2.0 * (b2 + b3) + b4, v)
     work = q * sixth * (n1 * v + 2.0 * (n2 * v2 + n3 * v3) + n4 * v4) if FRICTION else 0.0
     curvature = d * sixth * (fpp * v + 2.0 * (fpp2 * v2 + fpp3 * v3) + fpp4 * v4)
     drag = 0.0
@@ -134,6 +140,13 @@ def _with_drag(a, v, fp, b, c, d):
     """The acceleration with air drag added, and drag's power per unit mass."""
     kd = drag_rate(v, fp, b, c, d, DRAG_LINEAR, DRAG_QUADRATIC)
     return fma(-kd, v, a), kd * (v * v) * fma(fp, fp, 1.0)
+
+
+def _with_drag_deceleration(b, v, fp, bd, c, d):
+    """:func:`_with_drag` on the deceleration ``b = -a``: ``-fma(-kd, v, a)``
+    is ``fma(kd, v, b)`` exactly."""
+    kd = drag_rate(v, fp, bd, c, d, DRAG_LINEAR, DRAG_QUADRATIC)
+    return fma(kd, v, b), kd * (v * v) * fma(fp, fp, 1.0)
 
 
 class FixedStepMethod(NamedTuple):
