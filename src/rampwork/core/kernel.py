@@ -4,14 +4,17 @@ Why lanes: a loop that carries one trajectory at a time is bound by the latency
 of its divisions.  Here a tile of trajectories is run through a block of
 ``LANES`` lanes stored as structure of arrays; the inner loop does one step for
 every lane with no data-dependent branch, so LLVM turns it into vector code.
-Every lane steps every time, but a step whose event conditions fire
-(reversal or stop, lift-off, contact switch, exit, divergence), or one past
-the lane's ``t_max`` step limit, is not committed: the lane keeps the state
-at that step's start until the block ends, and records the step's index in
-its STOP.  Every ``SUBSTEPS`` steps a scalar pass books the steps of the
-lanes, resolves the event of each lane that stopped exactly (located inside
-the step by root finding on the step size, to rounding) and refills finished
-lanes with the next trajectory of the tile.  Once a tile has nothing left to load, running
+Every lane steps every time, and no step is held back where its event
+conditions fire (reversal or stop, lift-off, contact switch, exit,
+divergence): the lane steps on, each step's state goes to a history bank,
+and a per-lane flag records whether all the block's steps were clean; the
+tests run beside the recurrence, not in it.  Every ``SUBSTEPS`` steps a
+scan takes each clean lane to the block's last state and books its steps;
+a lane that was not clean (or reached its ``t_max`` step limit) goes back
+to the start of its first unclean step, found exactly in its history, and
+its event is resolved there (located inside the step by root finding on
+the step size, to rounding); finished lanes are refilled with the next
+trajectory of the tile.  Once a tile has nothing left to load, running
 lanes are compacted to the front so that its tail does not step empty lanes.
 
 Every trajectory sees the same sequence of floating-point operations whatever
@@ -70,13 +73,17 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 # evaluation, steppers.ramp_slope_curvature_near), where it has one
 STAGE_FROM_START = False
 ramp_slope_curvature_near = None
+# fixed steps: fields per history bank (x, v, W, then K and WD where the
+# kernel has them) and where K and WD sit in a bank (see build_kernel)
+N_HIST = 5
+HIST_K, HIST_WD = 3, 4
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
  resolve_linear, take_event, step_and_check, start_block, replay_lane,
  attempt_once, lane_parameters, uniform_parameters, locate_earliest,
- runtime_flags) = (None,) * 35
+ runtime_flags, clean_steps, step_from_bank, restore_bank) = (None,) * 38
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -86,69 +93,80 @@ PAPER_SAMPLES = 64
 # ------------------------------------------------------------------------------
 # vector part
 # ------------------------------------------------------------------------------
-def _advance_lanes(lanes, settings, shared, n_substeps, n_active):
-    """``n_substeps`` fixed steps on lanes 0 .. n_active-1.
+def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
+    """``n_substeps`` fixed steps on lanes 0 .. n_active-1 (all LANES lanes
+    with ``CHAINS = 2``).
 
     Branch-free per lane so that it vectorises (see :func:`_fixed_step_lane`).
-    Lane fields sit at compile-time-constant offsets ``FIELD * LANES``, which
-    lets the compiler prove that they do not overlap.  x and v alternate
-    between their two banks (layout.FIXED_BANK): a lane visit reads one and
-    writes the other, so the state it keeps where a step is not committed
-    is a blend and a plain store (written back in place, ``x = x1 if ok else
-    x`` compiles to masked stores, which some CPUs (AMD Zen) run many times
-    slower).  After an even count of visits the state is back in bank A.
-    With ``CHAINS = 2`` a full block runs its two halves side by side: each
-    lane's step is a chain of dependent divisions (four for RK4), and two
-    independent chains keep the divider busy where one would wait on
-    latency."""
+    No step is held back where its event conditions fire: every lane steps
+    on, step j of the block reading state bank j and writing bank j + 1
+    (layout.HIST), and a lane's CLEAN records whether all its steps were
+    clean; the scan takes a lane that was not back to the state at the start
+    of its first unclean step.  So the recurrence x, v -> x1, v1, the chain
+    of dependent divisions that bounds the loop, carries no event test and
+    no select: the tests run beside it.  The first visit reads the lane's
+    own fields and keeps them as bank 0, later ones read the history, at
+    offsets affine in the step index (banks live after the lane fields, in
+    the same array: ``history`` is ``lanes``).  With ``CHAINS = 2`` every
+    visit steps all LANES lanes, empty ones too, in two halves side by side:
+    two independent chains keep the divider busy where one would wait on
+    latency, and loops with a constant trip count get constant offsets that
+    LLVM can prove disjoint (with a run-time count and the history's
+    run-time offsets it would not vectorise)."""
     x_lo = settings[SET_XLO]
     x_hi = settings[SET_XHI]
     h = settings[SET_DT]
     uniform = uniform_parameters(settings)  # see parameters.py
     visits = n_substeps // UNROLL
-    if CHAINS == 2 and n_active > LANES // 2:
-        for pair in range(visits // 2):
-            k = float(2 * UNROLL * pair)  # the index of the visit's first step in the block
-            for i in range(LANES // 2):  # constant offsets: provably disjoint halves
-                fixed_step_lane(lanes, i, 0, FIXED_BANK, k, shared, x_lo, x_hi, h, uniform)
-                fixed_step_lane(lanes, i + LANES // 2, 0, FIXED_BANK, k, shared, x_lo, x_hi, h,
-                                uniform)
-            for i in range(LANES // 2):
-                fixed_step_lane(lanes, i, FIXED_BANK, 0, k + UNROLL, shared, x_lo, x_hi, h,
-                                uniform)
-                fixed_step_lane(lanes, i + LANES // 2, FIXED_BANK, 0, k + UNROLL, shared, x_lo,
-                                x_hi, h, uniform)
+    # the first visit: from the lane's own fields
+    if CHAINS == 2 and n_active > 0:
+        for i in range(LANES // 2):  # constant offsets: provably disjoint halves
+            fixed_step_lane(lanes, lanes, history, i, X, V, W, K, WD, HIST + N_HIST, True, shared,
+                            x_lo, x_hi, h, uniform)
+            fixed_step_lane(lanes, lanes, history, i + LANES // 2, X, V, W, K, WD, HIST + N_HIST,
+                            True, shared, x_lo, x_hi, h, uniform)
     else:
-        for pair in range(visits // 2):
-            k = float(2 * UNROLL * pair)
-            for i in range(n_active):
-                fixed_step_lane(lanes, i, 0, FIXED_BANK, k, shared, x_lo, x_hi, h, uniform)
-            for i in range(n_active):
-                fixed_step_lane(lanes, i, FIXED_BANK, 0, k + UNROLL, shared, x_lo, x_hi, h,
-                                uniform)
-    if visits % 2:  # an odd count of visits: the last one, then x and v back to bank A
-        k = float(UNROLL * (visits - 1))
         for i in range(n_active):
-            fixed_step_lane(lanes, i, 0, FIXED_BANK, k, shared, x_lo, x_hi, h, uniform)
-            lanes[X * LANES + i] = lanes[XB * LANES + i]
-            lanes[V * LANES + i] = lanes[VB * LANES + i]
+            fixed_step_lane(lanes, lanes, history, i, X, V, W, K, WD, HIST + N_HIST, True, shared,
+                            x_lo, x_hi, h, uniform)
+    for visit in range(1, visits):
+        src = HIST + N_HIST * visit * UNROLL  # the bank after the previous visit's last step
+        dst = src + N_HIST
+        if CHAINS == 2 and n_active > 0:
+            for i in range(LANES // 2):
+                fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
+                                src + HIST_W, src + HIST_K, src + HIST_WD, dst, False, shared, x_lo,
+                                x_hi, h, uniform)
+                fixed_step_lane(lanes, history, history, i + LANES // 2, src + HIST_X,
+                                src + HIST_V, src + HIST_W, src + HIST_K, src + HIST_WD, dst,
+                                False, shared, x_lo, x_hi, h, uniform)
+        else:
+            for i in range(n_active):
+                fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
+                                src + HIST_W, src + HIST_K, src + HIST_WD, dst, False, shared, x_lo,
+                                x_hi, h, uniform)
 
 
 def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared,
-                    drag_b, drag_c, x_lo, x_hi):
+                    drag_b, drag_c, x_lo, x_hi, block_end_exit=False):
     """One fixed step from (x, v) and whether it is clean, i.e. no event
     condition fired: ``(x1, v1, dw, dk, dwd, fp1, fpp1, ok)``.  The vector
     loop and the scalar replay both call this, so they round alike.
     ``dw < 0``: a step too long for the mode's signs (see _event_values).
     NaN makes every comparison false, so a non-finite step is not clean.
     ``qh`` = h q, ``dsign`` = D's sign bit, ``ahead`` the domain's end
-    ahead (layout's QH, DSIGN, AHEAD)."""
+    ahead (layout's QH, DSIGN, AHEAD).  ``block_end_exit`` (the vector
+    loop, first-order methods): leave out the exit test, which the scan
+    makes once on the block's last state (x moves monotonically while
+    d v > 0, so the last state is past the end ahead if any is)."""
     if not CARRY_SLOPE:
         fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
     x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared,
                                drag_b, drag_c)
     ok = flip_sign(v1, dsign) > 0.0  # d v1 > 0
-    if MONOTONE_STEP:
+    if MONOTONE_STEP and block_end_exit:
+        pass
+    elif MONOTONE_STEP:
         # x1 moves in direction d from x, so only the end ahead can be passed:
         # d (ahead - x1) > 0, the same test as x1 < x_hi (d > 0) or
         # x1 > x_lo (d < 0), exact (a difference of floats is 0 only
@@ -173,22 +191,20 @@ def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2,
     return x1, v1, dw, dk, dwd, fp1, fpp1, ok
 
 
-def _fixed_step_lane(lanes, i, src, dst, k, shared, x_lo, x_hi, h, uniform):
-    """UNROLL fixed steps on lane i, the first of them step ``k`` of the
-    block; x and v read from bank ``src`` and written to bank ``dst``.
-    Every step is computed; it is committed only while its index is below
-    the lane's STOP and its event conditions did not fire, and the first
-    that fired sets STOP to its index.  So the lane ends the block at the
-    start of the step that raised an event (or at its t_max step limit), and
-    the scan resolves it from there: no scalar replay of the block.  An empty
-    lane has D = 0, is never clean, and the scan ignores it.
-
-    The work integrals add 0.0 where a step is not committed, rather than
-    select: W, K and WD start at +0.0 and are never -0.0 (a sum is -0.0 only
-    if both terms are), so ``w + 0.0 == w`` exactly, and the sum stays a
-    plain store (a select against the loaded value becomes a masked store)."""
-    x = lanes[(X + src) * LANES + i]
-    v = lanes[(V + src) * LANES + i]
+def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_wd, dst,
+                     keep_start, shared, x_lo, x_hi, h, uniform):
+    """UNROLL fixed steps on lane i: the state read from fields ``src_x``,
+    ``src_v``, ``src_w``, ``src_k``, ``src_wd`` of ``source`` (the lanes or
+    the history) and each step's result written to the next history bank,
+    the first at field ``dst`` of ``history``; ``keep_start`` (the block's
+    first visit): the state read goes to bank 0 as well.  Every
+    step is taken from the previous one's result whether it was clean or
+    not; ``CLEAN`` drops to 0.0 at the first step that was not (a blend
+    beside the recurrence, not in it).  The steps after an unclean one are
+    never used: the scan goes back to the state before it.  An empty lane
+    has D = 0 and is never clean; the scan ignores it."""
+    x = source[src_x * LANES + i]
+    v = source[src_v * LANES + i]
     d = lanes[D * LANES + i]
     q = lanes[Q * LANES + i]
     qh = lanes[QH * LANES + i]
@@ -196,52 +212,121 @@ def _fixed_step_lane(lanes, i, src, dst, k, shared, x_lo, x_hi, h, uniform):
     ahead = lanes[AHEAD * LANES + i]
     sn = lanes[SN * LANES + i]
     g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform)
-    work = lanes[W * LANES + i]
-    curvature = 0.0 if CONSTANT_CURVATURE else lanes[K * LANES + i]
+    work = source[src_w * LANES + i]
+    curvature = 0.0 if CONSTANT_CURVATURE else source[src_k * LANES + i]
     drag_b = lanes[DRAG_B * LANES + i]
     drag_c = lanes[DRAG_C * LANES + i]
-    drag_work = lanes[WD * LANES + i] if DRAG else 0.0
-    # f', f'' are carried even past a step that is not committed: the scan
-    # evaluates them again at a stopped lane's x
+    drag_work = source[src_wd * LANES + i] if DRAG else 0.0
+    # f', f'' are carried along the unclean steps too: the scan evaluates
+    # them again at a lane's state that it goes back to
     fp = lanes[FP * LANES + i] if CARRY_SLOPE else 0.0
     fpp = lanes[FPP * LANES + i] if CARRY_SLOPE else 0.0
-    stop = lanes[STOP * LANES + i]
-    # UNROLL steps with the state in registers: one load and one store of
-    # each field per visit instead of per step
-    for u in range(UNROLL):
-        x1, v1, dw, dk, dwd, fp, fpp, ok = step_and_check(
-            x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
-            x_lo, x_hi)
-        step_k = k + u
-        live = step_k < stop
-        stop = step_k if (live & (not ok)) else stop
-        ok = ok & live
-        x = x1 if ok else x
-        v = v1 if ok else v
-        work += dw if ok else 0.0
+    clean = lanes[CLEAN * LANES + i]
+    if keep_start:
+        history[(HIST + HIST_X) * LANES + i] = x
+        history[(HIST + HIST_V) * LANES + i] = v
+        history[(HIST + HIST_W) * LANES + i] = work
         if not CONSTANT_CURVATURE:
-            curvature += dk if ok else 0.0
+            history[(HIST + HIST_K) * LANES + i] = curvature
         if DRAG:
-            drag_work += dwd if ok else 0.0
-    lanes[(X + dst) * LANES + i] = x
-    lanes[(V + dst) * LANES + i] = v
-    lanes[W * LANES + i] = work
-    if not CONSTANT_CURVATURE:
-        lanes[K * LANES + i] = curvature
-    if DRAG:
-        lanes[WD * LANES + i] = drag_work
+            history[(HIST + HIST_WD) * LANES + i] = drag_work
+    # UNROLL steps with the state in registers: one load of each field per visit
+    for u in range(UNROLL):
+        x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
+            x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
+            x_lo, x_hi, True)
+        # an add, not a select against the loaded value: that would become
+        # a masked load, which waits for the previous visit's store
+        clean += 0.0 if ok else -1.0
+        work += dw
+        bank = (dst + N_HIST * u) * LANES + i
+        history[bank + HIST_X * LANES] = x
+        history[bank + HIST_V * LANES] = v
+        history[bank + HIST_W * LANES] = work
+        if not CONSTANT_CURVATURE:
+            curvature += dk
+            history[bank + HIST_K * LANES] = curvature
+        if DRAG:
+            drag_work += dwd
+            history[bank + HIST_WD * LANES] = drag_work
     if CARRY_SLOPE:
         lanes[FP * LANES + i] = fp
         lanes[FPP * LANES + i] = fpp
-    lanes[STOP * LANES + i] = stop
+    lanes[CLEAN * LANES + i] = clean
 
 
-def _start_block(lanes, n_active, n_substeps):
-    """Each lane's STOP at a block's start: the steps left before its t_max
-    step limit, at most the block's (vectorised: plain loads and stores)."""
+def _start_block(lanes, n_active):
+    """Every lane clean at a block's start (vectorised: plain stores)."""
     for i in range(n_active):
-        lanes[STOP * LANES + i] = min(lanes[LIMIT * LANES + i] - lanes[STEPS * LANES + i],
-                                      float(n_substeps))
+        lanes[CLEAN * LANES + i] = 0.0
+
+
+def _clean_steps(lanes, history, i, settings, shared, n_steps):
+    """How many of the block's first ``n_steps`` steps of lane i were clean:
+    the index of the first that was not (or ``n_steps``), found from the
+    history banks with the vector loop's own tests, exactly.  Each state
+    after step j is in bank j + 1; the friction and drag works' signs
+    (tested where they are not >= 0 by construction) follow from the
+    banked sums where these grew (fl(w + dw) > w only if dw > 0); where a
+    sum did not, the step is taken again from its start (the same
+    arithmetic, the same values)."""
+    g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform_parameters(settings))
+    x_lo = settings[SET_XLO]
+    x_hi = settings[SET_XHI]
+    dsign = lanes[DSIGN * LANES + i]
+    ahead = lanes[AHEAD * LANES + i]
+    sn = lanes[SN * LANES + i]
+    for j in range(n_steps):
+        bank = HIST + N_HIST * (j + 1)  # the state after step j
+        x1 = history[(bank + HIST_X) * LANES + i]
+        v1 = history[(bank + HIST_V) * LANES + i]
+        ok = flip_sign(v1, dsign) > 0.0
+        if MONOTONE_STEP:
+            ok = ok and flip_sign(ahead - x1, dsign) > 0.0
+        else:
+            ok = ok and x1 < x_hi and x1 > x_lo
+        if CHECK_CONTACT:
+            _, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
+            ok = ok and sn * normal_term(v1, fpp1, g) > 0.0
+        if not ok:
+            return j
+        if WORK_SIGN_CHECK or DRAG:
+            grew = True
+            if WORK_SIGN_CHECK:
+                before = history[(bank - N_HIST + HIST_W) * LANES + i]
+                grew = history[(bank + HIST_W) * LANES + i] > before
+            if DRAG:
+                before = history[(bank - N_HIST + HIST_WD) * LANES + i]
+                grew = grew and history[(bank + HIST_WD) * LANES + i] > before
+            if not grew and not step_from_bank(lanes, history, i, j, settings, shared):
+                return j
+    return n_steps
+
+
+def _step_from_bank(lanes, history, i, j, settings, shared):
+    """Whether lane i's step j of the block, taken again from bank j, is
+    clean (the vector loop's arithmetic and tests)."""
+    g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform_parameters(settings))
+    x = history[(HIST + N_HIST * j + HIST_X) * LANES + i]
+    v = history[(HIST + N_HIST * j + HIST_V) * LANES + i]
+    fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    return step_and_check(
+        x, v, fp, fpp, lanes[Q * LANES + i], lanes[QH * LANES + i], lanes[D * LANES + i],
+        lanes[DSIGN * LANES + i], lanes[AHEAD * LANES + i], lanes[SN * LANES + i],
+        settings[SET_DT], g, p0, p1, p2, p3, shared, lanes[DRAG_B * LANES + i],
+        lanes[DRAG_C * LANES + i], settings[SET_XLO], settings[SET_XHI])[7]
+
+
+def _restore_bank(lanes, history, i, j):
+    """Lane i's state back to bank j (the start of the block's step j)."""
+    bank = HIST + N_HIST * j
+    lanes[X * LANES + i] = history[(bank + HIST_X) * LANES + i]
+    lanes[V * LANES + i] = history[(bank + HIST_V) * LANES + i]
+    lanes[W * LANES + i] = history[(bank + HIST_W) * LANES + i]
+    if not CONSTANT_CURVATURE:
+        lanes[K * LANES + i] = history[(bank + HIST_K) * LANES + i]
+    if DRAG:
+        lanes[WD * LANES + i] = history[(bank + HIST_WD) * LANES + i]
 
 
 def _replay_lane(lanes, i, settings, shared, n_steps):
@@ -900,7 +985,7 @@ def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
     return next_j
 
 
-def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
+def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active):
     """After ``n_substeps`` vector steps: resolve lanes with a pending event
     and stop lanes past the speed bound.  Returns how many lanes finished
     (now empty).
@@ -910,26 +995,48 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
     work then visits only those lanes, found by their bits (on an event-rich
     sweep one or two of 64 lanes in most blocks: a scalar visit of every
     lane would cost about as much as the block's vector steps).  For fixed
-    steps it books the block's steps, STOP of them, to every lane (the
-    vector loop does not count them); a lane that stopped short of the
-    block (an event, or its t_max step limit) is pending, at the start of
-    that step.  A lane that stepped in the block has made progress: its
-    event cascade count restarts."""
+    steps a lane whose steps were all clean, with its t_max step limit
+    beyond the block (and, for first-order methods, its last state short of
+    the end ahead), takes the block's last state and its steps; any other
+    lane is pending: the scalar work finds its first unclean step (or the
+    limit) in the history banks, takes the state before it and resolves the
+    event from there.  A lane that stepped in the block has made progress:
+    its event cascade count restarts."""
     freed = 0
+    # the block's last state (SUBSTEPS, a constant: constant offsets, which vectorise)
+    last = HIST + N_HIST * SUBSTEPS
     for word in range((LANES + 63) // 64):  # a constant count: one word for 64 lanes
         base = 64 * word
         bits = np.uint64(0)
         for k in range(min(64, n_active - base)):
             i = base + k
-            v = lanes[V * LANES + i]
             if ADAPTIVE:
+                v = lanes[V * LANES + i]
                 pending = lanes[PENDING * LANES + i] > 0.0
                 stepped = lanes[STEPS * LANES + i] > lanes[BLOCK_STEPS * LANES + i]
             else:
-                taken = lanes[STOP * LANES + i]
-                pending = taken < n_substeps
-                lanes[STEPS * LANES + i] += taken
-                stepped = taken > 0.0
+                x_end = history[(last + HIST_X) * LANES + i]
+                clean = (lanes[CLEAN * LANES + i] == 0.0) & (
+                    lanes[LIMIT * LANES + i] - lanes[STEPS * LANES + i] >= n_substeps)
+                if MONOTONE_STEP:  # the exit test left out of the vector loop
+                    clean = clean & (flip_sign(lanes[AHEAD * LANES + i] - x_end,
+                                               lanes[DSIGN * LANES + i]) > 0.0)
+                # the block's last state, whether clean or not (plain
+                # stores: a select against the stored value would be a
+                # masked store); the scalar work takes a lane that was not
+                # back to the start of its first unclean step
+                v = history[(last + HIST_V) * LANES + i]
+                lanes[X * LANES + i] = x_end
+                lanes[V * LANES + i] = v
+                lanes[W * LANES + i] = history[(last + HIST_W) * LANES + i]
+                if not CONSTANT_CURVATURE:
+                    lanes[K * LANES + i] = history[(last + HIST_K) * LANES + i]
+                if DRAG:
+                    lanes[WD * LANES + i] = history[(last + HIST_WD) * LANES + i]
+                lanes[STEPS * LANES + i] += n_substeps if clean else 0.0
+                lanes[CLEAN * LANES + i] = 0.0 if clean else -1.0  # for the scalar work
+                pending = not clean
+                stepped = clean
             # a product, not a select against the loaded value (a masked store)
             lanes[CASCADE * LANES + i] *= 0.0 if stepped else 1.0
             attention = (lanes[TRAJ * LANES + i] >= 0.0) & (
@@ -942,11 +1049,27 @@ def _scan_lanes(lanes, settings, outputs, shared, n_substeps, n_active):
             if ADAPTIVE:
                 clean = lanes[PENDING * LANES + i] == 0.0
             else:
-                clean = lanes[STOP * LANES + i] == n_substeps
-                if CARRY_SLOPE and not clean:
-                    # the vector loop carried f', f'' past the step that stopped
-                    # the lane: evaluated afresh at x (as _trace_one does)
-                    refresh_slope(lanes, i, shared)
+                clean = lanes[CLEAN * LANES + i] == 0.0  # took the block: past the speed bound
+                if not clean:
+                    # the clean steps before the first unclean one or the step limit
+                    left = lanes[LIMIT * LANES + i] - lanes[STEPS * LANES + i]
+                    taken = clean_steps(lanes, history, i, settings, shared,
+                                        np.int64(min(max(left, 0.0), float(n_substeps))))
+                    restore_bank(lanes, history, i, taken)
+                    lanes[STEPS * LANES + i] += taken
+                    if taken > 0:
+                        lanes[CASCADE * LANES + i] = 0.0
+                    if CARRY_SLOPE:
+                        # the vector loop carried f', f'' on past this state
+                        # (from the step start by the angle sum where
+                        # STAGE_FROM_START): evaluated afresh at x, as
+                        # _trace_one does
+                        refresh_slope(lanes, i, shared)
+                    if taken == n_substeps:  # (a lane is pending for an unclean step)
+                        v = lanes[V * LANES + i]
+                        if not v * v > lanes[VLIM2 * LANES + i]:
+                            continue
+                        clean = True
             if clean:
                 # past the speed bound: the step is far too large
                 rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
@@ -989,6 +1112,8 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
     """Run trajectories start..stop-1 through one block of LANES lanes."""
     lanes = new_lanes()
     runtime_flags(lanes, settings)  # a general kernel's choices (general.py)
+    # fixed steps: the states of a block's steps (see _advance_lanes)
+    history = lanes
     next_j = start
     for i in range(LANES):
         next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
@@ -998,9 +1123,12 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
             for i in range(n_active):
                 lanes[BLOCK_STEPS * LANES + i] = lanes[STEPS * LANES + i]
         else:
-            start_block(lanes, n_active, SUBSTEPS)
-        advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
-        if scan_lanes(lanes, settings, outputs, shared, SUBSTEPS, n_active) == 0:
+            start_block(lanes, n_active)
+        if ADAPTIVE:
+            advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
+        else:
+            advance_lanes(lanes, history, settings, shared, SUBSTEPS, n_active)
+        if scan_lanes(lanes, history, settings, outputs, shared, SUBSTEPS, n_active) == 0:
             continue
         if next_j < stop:
             for i in range(LANES):
@@ -1098,7 +1226,12 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     if variant.closed_form:
         return straight.build_closed_form(variant, ramp_height_fn, ramp_slope_curvature_fn,
                                           cache=cache)
-    n_lane_fields = N_LANE_FIELDS if variant.adaptive else N_FIELDS
+    # fixed steps: the history banks of a block's steps, only the fields the kernel integrates
+    drag = variant.drag or variant.runtime
+    curvature = not variant.constant_curvature or variant.runtime
+    n_hist = 3 + curvature + drag
+    n_lane_fields = (N_LANE_FIELDS if variant.adaptive
+                     else HIST + n_hist * (variant.substeps + 1))
     constants = {
         **variant.constants(),
         "ramp_height": ramp_height_fn,
@@ -1110,6 +1243,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         # the lane array: fixed-step kernels leave out the adaptive bank B
         # (a smaller block stays in the L1 cache)
         "N_LANE_FIELDS": n_lane_fields,
+        "N_HIST": n_hist, "HIST_K": 3, "HIST_WD": 3 + curvature,
         # every template calls `acceleration` by this global name
         "acceleration": acceleration if variant.friction else acceleration_frictionless,
     }
@@ -1176,6 +1310,8 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
             ("start_adaptive", _no_adaptive_start),
             ("step_and_check", _step_and_check), ("fixed_step_lane", _fixed_step_lane),
             ("start_block", _start_block), ("replay_lane", _replay_lane),
+            ("step_from_bank", _step_from_bank), ("clean_steps", _clean_steps),
+            ("restore_bank", _restore_bank),
         )
     if variant.paper_criterion or variant.runtime:
         add("_paper_holds", _paper_holds, **no_refcount)

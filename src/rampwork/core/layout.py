@@ -18,14 +18,12 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # FRESH: 1 from a two-sided contact switch until the next accepted step.
 # Air drag (kernels built with drag only): DRAG_B, DRAG_C, the coefficients b
 # (1/s) and c (1/m); WD, the work against drag per unit mass.
-# Fixed-step methods only: STOP, the steps the lane takes in the current
-# block of SUBSTEPS: set at the block's start to the steps left before the
-# t_max step limit (at most SUBSTEPS), lowered by the vector loop to the
-# index of the first step whose event conditions fired; the lane keeps the
-# state at that step's start, where the scan resolves the event.  XB, VB:
-# x and v's second bank (x at X or XB, v at V or VB: one offset,
-# FIXED_BANK), which the vector loop's steps alternate between, as the
-# adaptive banks below.  Adaptive methods only:
+# Fixed-step methods only: CLEAN, 1.0 while every step of the current block
+# of SUBSTEPS has been clean (no event condition fired), 0.0 after one was
+# not; the vector loop does not stop a lane at its event but steps on, and
+# keeps each step's state in the history banks (HIST below), from which the
+# scan takes the state at the start of the first step that was not clean.
+# Adaptive methods only:
 # BLOCK_STEPS, the step count at the block's start (a lane that stepped since
 # has made progress: its event cascade count restarts).  Fixed-step methods
 # only, set with the mode: DSIGN, the sign bit of D as a float (-0.0 or 0.0),
@@ -41,16 +39,22 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # adaptive._advance_lanes_adaptive), so every store is unconditional.
 (X, V, FP, FPP, W, K, WD, A1, T, H, LERR, REJ, FRESH,
  Q, D, SN, S, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
- STEPS, STOP, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
+ STEPS, CLEAN, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
  NREJ, EEST, PENDING, DRAG_B, DRAG_C, XP, PXM,
- XB, VB, BLOCK_STEPS, DSIGN, QH, AHEAD) = range(49)
-N_FIELDS = 49
-FIXED_BANK = XB - X  # x's and v's second bank (fixed steps): VB - V too
+ BLOCK_STEPS, DSIGN, QH, AHEAD) = range(47)
+N_FIELDS = 47
+# Fixed-step kernels: after the N_FIELDS fields, the history banks.  Bank j
+# (0 .. SUBSTEPS) holds the state after step j of the block (bank 0: its
+# start): x, v and the integrals W, K, WD at fields HIST + N_HIST j + HIST_X
+# .. HIST_WD, where a kernel has K and WD (kernel.build_kernel sets N_HIST
+# and their places: the bowl's banks hold x, v, W).
+HIST = N_FIELDS
+HIST_X, HIST_V, HIST_W = range(3)
 N_BANKED = 13
 BANK_B = N_FIELDS  # field F's bank-B copy is F + BANK_B (F < N_BANKED)
-N_LANE_FIELDS = N_FIELDS + N_BANKED  # adaptive kernels; fixed-step ones have no bank B
-# After the lanes (N_LANE_FIELDS * LANES; N_FIELDS * LANES in fixed-step
-# kernels), a tile's scratch: the height range of the ramp parameters
+N_LANE_FIELDS = N_FIELDS + N_BANKED  # adaptive kernels; fixed-step ones: the history banks instead
+# After the lanes (N_LANE_FIELDS * LANES; (N_FIELDS + N_HIST SUBSTEPS) * LANES
+# in fixed-step kernels), a tile's scratch: the height range of the ramp parameters
 # last loaded (RANGE_P0..P3 -> RANGE_FMIN, RANGE_FMAX), so that a sweep whose
 # ramp does not change samples it once per tile, not once per trajectory.
 RANGE_P0, RANGE_P1, RANGE_P2, RANGE_P3, RANGE_FMIN, RANGE_FMAX = range(6)
