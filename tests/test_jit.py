@@ -4,6 +4,7 @@ code, no cache file of their own) and still run correctly inside a caller."""
 import math
 
 import numba
+import numpy as np
 import pytest
 
 from rampwork.core.jit import INTERNAL_OPTIONS, jit
@@ -58,3 +59,25 @@ def test_internal_overrides_cannot_turn_the_cache_back_on():
     helper = jit(lambda x: x + 1.0, internal=True, cache=True)
     assert isinstance(helper, numba.core.registry.CPUDispatcher)
     assert helper._cache.__class__.__name__ == "NullCache"
+
+
+@pytest.mark.parametrize("size", [1, 7, 8, 63, 64, 1000, 4097])
+def test_aligned_zeros_start_on_a_cache_line(size):
+    # numba itself aligns to 32 bytes: over a few dozen live allocations of
+    # varied sizes some would start mid-line without the padding
+    from rampwork.core.jit import CACHE_LINE, aligned_zeros
+
+    @numba.njit
+    def offsets(n, count):
+        out = np.empty((count, 3), np.int64)
+        previous = aligned_zeros(1)
+        for k in range(count):
+            a = aligned_zeros(n + k % 3)
+            out[k, 0] = a.ctypes.data % CACHE_LINE
+            out[k, 1] = a.size - (n + k % 3)
+            out[k, 2] = np.count_nonzero(a)
+            a[-1] = previous[0]  # both stay live: the allocator moves on
+            previous = a
+        return out
+
+    assert not offsets(size, 40).any()

@@ -15,6 +15,7 @@ import types
 
 import llvmlite.binding as llvm
 import numba
+import numpy as np
 from llvmlite import ir
 from numba.core.codegen import JITCodeLibrary
 from numba.core.compiler import Compiler
@@ -319,3 +320,20 @@ def flip_sign(y, sign):
     A logic operation instead of a multiplication (the lane loops' multiply
     pipes are their bottleneck)."""
     return bits_float(float_bits(y) ^ float_bits(sign))
+
+
+#: bytes: a cache line.  numba aligns the arrays it allocates to 32 bytes only,
+#: so a lane loop's 512-bit loads straddled two cache lines in about half of
+#: the processes: Euler's grid ran at 29 % or 33 % of the division ceiling
+#: from one process to the next (benchmarks/events.py)
+CACHE_LINE = 64
+
+
+@jit
+def aligned_zeros(size):
+    """A float64 array of ``size`` zeros that starts on a cache line (a view
+    into a slightly longer allocation, C-contiguous)."""
+    pad = CACHE_LINE // 8
+    buffer = np.zeros(size + pad)
+    first = ((CACHE_LINE - buffer.ctypes.data % CACHE_LINE) % CACHE_LINE) // 8
+    return buffer[first:first + size]

@@ -36,7 +36,7 @@ import numpy as np
 
 from . import status as st
 from .layout import *  # noqa: F403 - the lane layout, shared with adaptive.py
-from .jit import flip_sign, fma, specialise
+from .jit import aligned_zeros, flip_sign, fma, specialise
 from numba.cpython.unsafe.numbers import trailing_zeros
 from . import straight
 from .variant import KernelVariant
@@ -594,8 +594,9 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
 
 
 def _new_lanes():
-    """A block of LANES empty lanes and its tile scratch (nothing cached)."""
-    lanes = np.zeros(N_LANE_FIELDS * LANES + N_SCRATCH)
+    """A block of LANES empty lanes and its tile scratch (nothing cached),
+    starting on a cache line (``jit.aligned_zeros``)."""
+    lanes = aligned_zeros(N_LANE_FIELDS * LANES + N_SCRATCH)
     for i in range(LANES):
         make_empty(lanes, i)
     lanes[N_LANE_FIELDS * LANES:] = np.nan
