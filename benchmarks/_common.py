@@ -17,6 +17,12 @@ import sys
 
 #: default folder for results (gitignored)
 RESULTS_DIR = pathlib.Path(__file__).resolve().parent / "results"
+#: the kernel tier of every timed rampwork run: the scene's specialised kernel,
+#: its compilation (or disk-cache load) timed apart on the first call.  With
+#: rw.simulate's default "auto", a short run of a variant not yet compiled goes
+#: to the general kernel (2-4x slower per step on the dome): such timings would
+#: measure the tier, not the method
+KERNEL = "specialised"
 
 
 def cpu_model() -> str:

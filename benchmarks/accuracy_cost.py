@@ -325,7 +325,7 @@ def first_call(rw, scene, cols, threads) -> dict:
     """A tiny simulate that builds (or loads) the kernel: its compile time."""
     sweep = rw.Sweep.cases(**{k: v[:2] for k, v in cols.items()})
     started = time.perf_counter()
-    ds = rw.simulate(scene, sweep, threads=threads)
+    ds = rw.simulate(scene, sweep, threads=threads, kernel=C.KERNEL)
     return {"compile_time_s": float(ds.attrs["compile_time_s"]),
             "first_call_wall_s": time.perf_counter() - started,
             "source": kernel_source(rw, scene, sweep)}
@@ -336,7 +336,7 @@ def timed_run(rw, scene, sweep, threads, repeat):
     together took less than MIN_TIMED_S.  Returns (dataset, runs, run times)."""
     best, times = None, []
     while True:
-        ds = rw.simulate(scene, sweep, threads=threads)
+        ds = rw.simulate(scene, sweep, threads=threads, kernel=C.KERNEL)
         times.append(float(ds.attrs["run_time_s"]))
         if best is None or times[-1] < float(best.attrs["run_time_s"]):
             best = ds
@@ -602,7 +602,7 @@ def run_scene(rw, reference, np, spec: SceneSpec, settings, args, threads) -> di
             if method not in out["compile"]:
                 out["compile"][method] = first_call(rw, scene, cols, threads)
             with OtherCpu() as other:
-                ds = rw.simulate(scene, sweep, threads=threads)
+                ds = rw.simulate(scene, sweep, threads=threads, kernel=C.KERNEL)
                 times, timed_n = timing(rw, scene, cols, threads, sizes["repeat"],
                                         float(ds.attrs["run_time_s"]), np)
             st = ds["status"].values
@@ -699,7 +699,7 @@ def throughput_line(rw, reference, np, args) -> dict:
     for rep_ in range(3):  # always three runs of each, interleaved, the fastest counts
         for m in (ADAPTIVE_METHODS if rep_ % 2 == 0 else ADAPTIVE_METHODS[::-1]):
             with OtherCpu() as other:
-                ds = rw.simulate(scenes[m], sweep, threads=threads)
+                ds = rw.simulate(scenes[m], sweep, threads=threads, kernel=C.KERNEL)
             shares[m].append(other.share)
             times[m].append(float(ds.attrs["run_time_s"]))
             if best[m] is None or times[m][-1] <= min(times[m]):

@@ -153,7 +153,7 @@ def run_rampwork(rw, method, rtol, cols):
     scene = rampwork_scene(rw, method, rtol)
     sweep = rw.Sweep.cases(**cols)
     started = time.perf_counter()
-    ds = rw.simulate(scene, sweep, threads=THREADS)
+    ds = rw.simulate(scene, sweep, threads=THREADS, kernel=A.C.KERNEL)
     wall = time.perf_counter() - started
     out = {k: ds[k].values.ravel().copy() for k in ("status", "x_end", "W_friction", "t_end", "steps")}
     out["compile_s"] = float(ds.attrs["compile_time_s"])
