@@ -19,7 +19,7 @@ import math
 
 from .jit import fma, jit
 from .steppers import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64,
-                       A65, B1, B3, B4, B5, B6, E1, E3, E4, E5, E6, E7)
+                       A65, _error6, _weigh5)
 
 curve_frame = stage = None  # bound per scene
 FRICTION = True
@@ -114,8 +114,8 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
         fma(h, fma(A65, v5, fma(A64, v4, fma(A63, v3, fma(A62, v2, A61 * v1)))), p), u6, q, d, g,
         s0, s1, s2, s3, shared, b, c)
     v6 = u6 * r6
-    p7 = fma(h, fma(B6, v6, fma(B5, v5, fma(B4, v4, fma(B3, v3, B1 * v1)))), p)
-    u7 = fma(h, fma(B6, a6, fma(B5, a5, fma(B4, a4, fma(B3, a3, B1 * a1)))), u)
+    p7 = fma(h, _weigh5(v1, v3, v4, v5, v6), p)
+    u7 = fma(h, _weigh5(a1, a3, a4, a5, a6), u)
     a7, n7, k7, r7, pd7 = stage(p7, u7, q, d, g, s0, s1, s2, s3, shared, b, c)
     v7 = u7 * r7
     w1, w3, w4, w5, w6, w7 = n1 * u, n3 * u3, n4 * u4, n5 * u5, n6 * u6, n7 * u7
@@ -136,16 +136,6 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
         squares += err_d * err_d
         count += 1.0
     return p7, u7, work, turn, displacement, drag, math.sqrt(squares / count)
-
-
-@jit
-def _weigh5(k1, k3, k4, k5, k6):
-    return fma(B6, k6, fma(B5, k5, fma(B4, k4, fma(B3, k3, B1 * k1))))
-
-
-@jit
-def _error6(k1, k3, k4, k5, k6, k7):
-    return fma(E7, k7, fma(E6, k6, fma(E5, k5, fma(E4, k4, fma(E3, k3, E1 * k1)))))
 
 
 #: method name -> (step template, order, adaptive)
