@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from . import io, runner, schema
+from . import cluster, io, runner, schema
 from ._version import __version__
 from .chunkstore import (DIGEST_ATTR, DONE_ATTR, LAYOUT_ATTR, RUN_TIME_ATTR,  # noqa: F401
                          fit_done, open_chunk_store)
@@ -159,7 +159,7 @@ class SweepToFile:
         if chunk_size is not None and (isinstance(chunk_size, bool)
                                        or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
             raise ConfigError("chunk_size", f"must be a positive integer, got {chunk_size!r}")
-        self.scheduler = _check_scheduler(scheduler, self.plan)
+        self.scheduler = cluster.check_scheduler(scheduler, self.plan)
         if self.scheduler is not None and threads is not None:
             raise ConfigError("threads", "not used with a scheduler: each worker runs a chunk on "
                               "its own threads")
@@ -289,7 +289,7 @@ class SweepToFile:
         prepared = runner.prepare(self.plan)
         info.update({"compile_time_s": prepared.compile_seconds, "threads": self.threads,
                      "kernel_source": prepared.kernel_source, "kernel_tier": prepared.tier,
-                     "traces": lambda: _traces(prepared)})
+                     "traces": lambda: cluster.traces(prepared)})
 
         def chunks():
             with runner.using_threads(self.threads):
@@ -304,17 +304,18 @@ class SweepToFile:
         task per chunk; fills ``info``."""
         from distributed import as_completed
 
-        client, cluster = _connect(self.scheduler)
+        client, started = cluster.connect(self.scheduler)
         # the stored scene, its long axes shipped as arrays beside it (not as text)
-        text = _Shipped(run_digest(self.plan), runner.scene_text(self.plan.scene, self.plan.sweep, stored=True),
-                        {} if self.plan.sweep.design is not None else dict(self.plan.sweep.axes))
+        text = cluster.Shipped(run_digest(self.plan),
+                               runner.scene_text(self.plan.scene, self.plan.sweep, stored=True),
+                               {} if self.plan.sweep.design is not None else dict(self.plan.sweep.axes))
         info.update({"compile_time_s": 0.0, "threads": sum(client.nthreads().values()),
                      "scheduler": str(client.scheduler.address)})
-        if cluster is not None:
-            info["close"] = lambda: (client.close(), cluster.close())
+        if started is not None:  # a local cluster we started: ours to close
+            info["close"] = lambda: (client.close(), started.close())
 
         def traces():
-            return client.submit(_traces_task, text, pure=False).result()
+            return client.submit(cluster.traces_task, text, pure=False).result()
 
         info["traces"] = traces
 
@@ -330,9 +331,9 @@ class SweepToFile:
             def submit(index):
                 start, stop, where, shape = self.layout.piece(index)
                 if writer is not None:
-                    return client.submit(_chunk_store_task, shipped, index, start, stop, writer, where,
+                    return client.submit(cluster.chunk_store_task, shipped, index, start, stop, writer, where,
                                          shape, pure=False)
-                return client.submit(_chunk_task, shipped, index, start, stop, pure=False)
+                return client.submit(cluster.chunk_task, shipped, index, start, stop, pure=False)
 
             running = as_completed([submit(i) for i in itertools.islice(todo, window)])
             for future in running:
@@ -388,106 +389,6 @@ def _one_ahead(items):
     finally:
         stop.set()
         worker.join()
-
-
-def _traces(prepared: runner.Prepared) -> tuple[xr.Dataset, float]:
-    """The recorded trajectories alone, and the seconds they took."""
-    return runner.with_traces(prepared, xr.Dataset())
-
-
-# ------------------------------------------------------------------------------
-# Dask: the scheduler argument, and the tasks the workers run
-# ------------------------------------------------------------------------------
-def _check_scheduler(scheduler, plan: runner.RunPlan):
-    if scheduler is None:
-        return None
-    try:
-        from distributed import Client
-    except ImportError:
-        raise ConfigError("scheduler", "needs dask.distributed: pip install 'rampwork[cluster]'") from None
-    if not isinstance(scheduler, (str, Client)) or (isinstance(scheduler, str) and not scheduler.strip()):
-        raise ConfigError("scheduler", f"expected 'local', a scheduler address such as "
-                          f"tcp://host:8786, or a distributed.Client; got {scheduler!r}")
-    if plan.scene.ramp.family == "callable":
-        raise ConfigError("scheduler", "a ramp of user functions cannot be shipped to workers "
-                          "(they rebuild the scene from its text); run it with threads")
-    return scheduler
-
-
-def _connect(scheduler):
-    """(client, cluster): the cluster is ours to close when we started it."""
-    from distributed import Client, LocalCluster
-
-    if isinstance(scheduler, Client):
-        return scheduler, None
-    if scheduler == "local":
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=cores, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        return Client(cluster), cluster
-    try:
-        return Client(scheduler, timeout="10s"), None
-    except (OSError, TimeoutError, ValueError) as error:
-        raise ConfigError("scheduler", f"cannot connect to {scheduler!r}: "
-                          f"{' '.join(str(error).split())}") from None
-
-
-@dataclass(frozen=True, eq=False)
-class _Shipped:
-    """What a worker rebuilds a run from: the stored scene text, the sweep's
-    axes as arrays (which the text may only refer to) and the run's digest."""
-
-    digest: str
-    text: str
-    coordinates: dict
-
-
-#: on a worker: prepared runs by their digest, and one kernel call at a
-#: time (a worker's threads share the kernels' thread pool)
-_WORKER_RUNS: dict[str, runner.Prepared] = {}
-_WORKER_LOCK = threading.Lock()
-
-
-def _worker_prepared(shipped: _Shipped) -> tuple[runner.Prepared, float]:
-    from .scenefile import parse_scene
-
-    key = shipped.digest
-    if key in _WORKER_RUNS:
-        return _WORKER_RUNS[key], 0.0
-    scene, sweep = parse_scene(shipped.text, "scene shipped to a worker", shipped.coordinates)
-    prepared = runner.prepare(runner.plan_run(scene, sweep), "specialised")  # as the file says
-    _WORKER_RUNS[key] = prepared
-    return prepared, prepared.compile_seconds
-
-
-def _worker_threads() -> int:
-    import numba
-    from distributed import get_worker
-
-    worker = get_worker()
-    threads = getattr(getattr(worker, "state", None), "nthreads", None) or getattr(worker, "nthreads", 1)
-    return max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS))
-
-
-def _chunk_task(text: _Shipped, index: int, start: int, stop: int):
-    with _WORKER_LOCK:
-        prepared, compile_seconds = _worker_prepared(text)
-        threads = _worker_threads()
-        with runner.using_threads(threads):
-            return index, runner.run_chunk(prepared, start, stop, threads), compile_seconds
-
-
-def _chunk_store_task(text: _Shipped, index: int, start: int, stop: int, writer, where, shape):
-    """A chunk computed and written on the worker: only its index goes back."""
-    index, results, compile_seconds = _chunk_task(text, index, start, stop)
-    writer.write(index, where, shape, results)
-    return index, None, compile_seconds
-
-
-def _traces_task(text: _Shipped):
-    with _WORKER_LOCK:
-        prepared, _ = _worker_prepared(text)
-        return _traces(prepared)
 
 
 # ------------------------------------------------------------------------------
