@@ -1067,8 +1067,9 @@ def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
 
 def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active):
     """After ``n_substeps`` vector steps: resolve lanes with a pending event
-    and stop lanes past the speed bound.  Returns how many lanes finished
-    (now empty).
+    and stop lanes past the speed bound.  Returns the lanes that finished
+    (now empty) as bits, lane k at bit k (with LANES > 64: every bit set
+    where any lane finished), so that the refill visits only those.
 
     A vectorised pass over each word of up to 64 lanes books what every lane
     needs booked and sets one bit per lane that needs attention; the scalar
@@ -1082,7 +1083,7 @@ def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active)
     limit) in the history banks, takes the state before it and resolves the
     event from there.  A lane that stepped in the block has made progress:
     its event cascade count restarts."""
-    freed = 0
+    freed = np.uint64(0)
     # the block's last state (SUBSTEPS, a constant: constant offsets, which vectorise)
     last = HIST + N_HIST * SUBSTEPS
     for word in range((LANES + 63) // 64):  # a constant count: one word for 64 lanes
@@ -1150,14 +1151,17 @@ def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active)
                         if not v * v > lanes[VLIM2 * LANES + i]:
                             continue
                         clean = True
+            # this lane's bit in the mask of finished lanes (all bits past 64 lanes)
+            lane_bit = np.uint64(1) << np.uint64(k) if LANES <= 64 else ~np.uint64(0)
             if clean:
                 # past the speed bound: the step is far too large
                 rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
                 finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
-                freed += 1
+                freed |= lane_bit
             elif not resolve_lane(lanes, i, settings, outputs, shared):
-                freed += 1
+                freed |= lane_bit
     return freed
+
 
 
 def _compact_lanes(lanes):
@@ -1208,9 +1212,17 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
             advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
         else:
             advance_lanes(lanes, history, settings, shared, SUBSTEPS, n_active)
-        if scan_lanes(lanes, history, settings, outputs, shared, SUBSTEPS, n_active) == 0:
+        freed = scan_lanes(lanes, history, settings, outputs, shared, SUBSTEPS, n_active)
+        if freed == 0:
             continue
-        if next_j < stop:
+        if next_j < stop and LANES <= 64:
+            # while trajectories are left every lane runs but those just
+            # finished: refill them by their bits, in lane order
+            while freed != 0:
+                i = np.int64(trailing_zeros(freed))
+                freed &= freed - np.uint64(1)
+                next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
+        elif next_j < stop:
             for i in range(LANES):
                 if lanes[TRAJ * LANES + i] < 0.0:
                     next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
