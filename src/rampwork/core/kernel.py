@@ -48,6 +48,7 @@ from . import adaptive as adaptive_parts
 from . import parameters
 from . import steppers
 from .ramps import SLOPE_CURVATURE_NEAR, SLOPE_CURVATURE_SHORT
+from . import ramps
 from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 
 # bound per scene by build_kernel (compile-time constants)
@@ -93,6 +94,17 @@ first_stages = last_stages = None
  attempt_once, lane_parameters, uniform_parameters, locate_earliest,
  runtime_flags, clean_steps, step_from_bank, restore_bank, first_stages_lane,
  checked_step) = (None,) * 40
+
+#: families whose RK4 runs its vector step in two lane loops (SPLIT_STEP),
+#: measured not slower (benchmarks/families.py, 1 thread, CPU time, two
+#: runs: quadratic 1.18-1.22x, sine 1.05x, circular bowl 0.99-1.02x, spline
+#: 1.05-1.11x).  Not the cycloid (9x slower split, not yet investigated:
+#: its Newton solve is evaluated in both loops) nor user callables (not
+#: measured)
+SPLIT_STEP_FAMILIES = frozenset((
+    ramps.straight_slope_curvature, ramps.quadratic_slope_curvature,
+    ramps.circular_bowl_slope_curvature, ramps.circular_dome_slope_curvature,
+    ramps.sine_slope_curvature, ramps.spline_slope_curvature))
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -1328,6 +1340,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     # is chosen at run time); their values pass through N_CARRY fields
     # after the banks: constant offsets, as the lane fields'
     split = (None if variant.adaptive or variant.runtime or variant.unroll != 1
+             or ramp_slope_curvature_fn not in SPLIT_STEP_FAMILIES
              else STEPPERS[variant.method].split)
     carry = n_lane_fields
     if split is not None:
