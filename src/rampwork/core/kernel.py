@@ -48,6 +48,7 @@ from . import adaptive as adaptive_parts
 from . import parameters
 from . import steppers
 from .ramps import SLOPE_CURVATURE_NEAR, SLOPE_CURVATURE_SHORT
+from . import ramps
 from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 
 # bound per scene by build_kernel (compile-time constants)
@@ -77,13 +78,33 @@ ramp_slope_curvature_near = None
 # kernel has them) and where K and WD sit in a bank (see build_kernel)
 N_HIST = 5
 HIST_K, HIST_WD = 3, 4
+# fixed steps with a split step (RK4: steppers.FixedStepMethod.split): the
+# vector loop runs the step's first part for all lanes, then its last part,
+# the values between them in N_CARRY fields from CARRY (after the history
+# banks; see build_kernel)
+SPLIT_STEP = False
+CARRY = 0
+N_CARRY = 8
+first_stages = last_stages = None
 (advance_lanes, load_lane, resolve_lane, finish_lane, event_value, locate_event, apply_step,
  run_tile, current_time, rebase, make_empty, set_mode, start_value, fill_lane,
  scan_lanes, compact_lanes, event_values, refresh_slope, active_span,
  trial_step, apply_event, start_adaptive, new_lanes, fixed_step_lane, paper_scan,
  resolve_linear, take_event, step_and_check, start_block, replay_lane,
  attempt_once, lane_parameters, uniform_parameters, locate_earliest,
- runtime_flags, clean_steps, step_from_bank, restore_bank) = (None,) * 38
+ runtime_flags, clean_steps, step_from_bank, restore_bank, first_stages_lane,
+ checked_step) = (None,) * 40
+
+#: families whose RK4 runs its vector step in two lane loops (SPLIT_STEP),
+#: measured not slower (benchmarks/families.py, 1 thread, CPU time, two
+#: runs: quadratic 1.18-1.22x, sine 1.05x, circular bowl 0.99-1.02x, spline
+#: 1.05-1.11x).  Not the cycloid (9x slower split, not yet investigated:
+#: its Newton solve is evaluated in both loops) nor user callables (not
+#: measured)
+SPLIT_STEP_FAMILIES = frozenset((
+    ramps.straight_slope_curvature, ramps.quadratic_slope_curvature,
+    ramps.circular_bowl_slope_curvature, ramps.circular_dome_slope_curvature,
+    ramps.sine_slope_curvature, ramps.spline_slope_curvature))
 
 #: samples of f' per mode where the paper's criterion is looked for (then
 #: bisected to rounding); a sign change narrower than a sample can be missed
@@ -119,6 +140,8 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
     uniform = uniform_parameters(settings)  # see parameters.py
     visits = n_substeps // UNROLL
     # the first visit: from the lane's own fields
+    if SPLIT_STEP:
+        first_stages_all(lanes, lanes, X, V, shared, h, uniform, n_active)
     if CHAINS == 2 and n_active > 0:
         for i in range(LANES // 2):  # constant offsets: provably disjoint halves
             fixed_step_lane(lanes, lanes, history, i, X, V, W, K, WD, HIST + N_HIST, True, shared,
@@ -132,6 +155,9 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
     for visit in range(1, visits):
         src = HIST + N_HIST * visit * UNROLL  # the bank after the previous visit's last step
         dst = src + N_HIST
+        if SPLIT_STEP:
+            first_stages_all(lanes, history, src + HIST_X, src + HIST_V, shared, h, uniform,
+                             n_active)
         if CHAINS == 2 and n_active > 0:
             for i in range(LANES // 2):
                 fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
@@ -145,6 +171,48 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
                 fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
                                 src + HIST_W, src + HIST_K, src + HIST_WD, dst, False, shared, x_lo,
                                 x_hi, h, uniform)
+
+
+def _first_stages_all(lanes, source, src_x, src_v, shared, h, uniform, n_active):
+    """SPLIT_STEP: the first part of the step on every lane (CHAINS = 2:
+    all LANES lanes in two halves, as :func:`_advance_lanes`), from x, v at
+    fields ``src_x``, ``src_v`` of ``source``; its values go to the CARRY
+    fields, where :func:`_fixed_step_lane` takes them.  Two lane loops with
+    half the step each keep more independent work in flight than one loop
+    with the whole step, whose four dependent stages hold the out-of-order
+    window to few lanes (RK4)."""
+    if CHAINS == 2 and n_active > 0:
+        for i in range(LANES // 2):
+            first_stages_lane(lanes, source, i, src_x, src_v, shared, h, uniform)
+            first_stages_lane(lanes, source, i + LANES // 2, src_x, src_v, shared, h, uniform)
+    else:
+        for i in range(n_active):
+            first_stages_lane(lanes, source, i, src_x, src_v, shared, h, uniform)
+
+
+def _first_stages_lane(lanes, source, i, src_x, src_v, shared, h, uniform):
+    """The step's first part on lane i (see :func:`_first_stages_all`)."""
+    g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform)
+    x = source[src_x * LANES + i]
+    if CARRY_SLOPE:
+        fp = lanes[FP * LANES + i]
+        fpp = lanes[FPP * LANES + i]
+    else:
+        fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    a1, v2, a2, n1v, n2v2, fpp2v2, pd1, pd2 = first_stages(
+        x, source[src_v * LANES + i], fp, fpp, lanes[Q * LANES + i], lanes[D * LANES + i], h, g,
+        p0, p1, p2, p3, shared, lanes[DRAG_B * LANES + i], lanes[DRAG_C * LANES + i])
+    # in the order of the stepper's tuple; only those this kernel reads
+    lanes[CARRY * LANES + i] = a1
+    lanes[(CARRY + 1) * LANES + i] = v2
+    lanes[(CARRY + 2) * LANES + i] = a2
+    lanes[(CARRY + 3) * LANES + i] = n1v
+    lanes[(CARRY + 4) * LANES + i] = n2v2
+    if not CONSTANT_CURVATURE:
+        lanes[(CARRY + 5) * LANES + i] = fpp2v2
+    if DRAG:
+        lanes[(CARRY + 6) * LANES + i] = pd1
+        lanes[(CARRY + 7) * LANES + i] = pd2
 
 
 def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared,
@@ -163,6 +231,14 @@ def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2,
         fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
     x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared,
                                drag_b, drag_c)
+    return checked_step(x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3,
+                        shared, x_lo, x_hi, block_end_exit)
+
+
+def _checked_step(x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3, shared,
+                  x_lo, x_hi, block_end_exit):
+    """:func:`_step_and_check` after the step from x to ``x1, v1`` (with
+    f', f'' = ``fp, fpp`` at x): the tests, and f', f'' at x1."""
     ok = flip_sign(v1, dsign) > 0.0  # d v1 > 0
     if MONOTONE_STEP and block_end_exit:
         pass
@@ -232,9 +308,24 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_
             history[(HIST + HIST_WD) * LANES + i] = drag_work
     # UNROLL steps with the state in registers: one load of each field per visit
     for u in range(UNROLL):
-        x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
-            x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
-            x_lo, x_hi, True)
+        if SPLIT_STEP:  # UNROLL = 1: the step's first part is in CARRY (_first_stages_all)
+            if not CARRY_SLOPE:
+                fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+            x1, v1, dw, dk, dwd = last_stages(
+                x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
+                lanes[CARRY * LANES + i], lanes[(CARRY + 1) * LANES + i],
+                lanes[(CARRY + 2) * LANES + i], lanes[(CARRY + 3) * LANES + i],
+                lanes[(CARRY + 4) * LANES + i],
+                0.0 if CONSTANT_CURVATURE else lanes[(CARRY + 5) * LANES + i],
+                lanes[(CARRY + 6) * LANES + i] if DRAG else 0.0,
+                lanes[(CARRY + 7) * LANES + i] if DRAG else 0.0)
+            x, v, dw, dk, dwd, fp, fpp, ok = checked_step(
+                x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3, shared,
+                x_lo, x_hi, True)
+        else:
+            x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
+                x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b,
+                drag_c, x_lo, x_hi, True)
         # an add, not a select against the loaded value: that would become
         # a masked load, which waits for the previous visit's store
         clean += 0.0 if ok else -1.0
@@ -988,8 +1079,9 @@ def _fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared):
 
 def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active):
     """After ``n_substeps`` vector steps: resolve lanes with a pending event
-    and stop lanes past the speed bound.  Returns how many lanes finished
-    (now empty).
+    and stop lanes past the speed bound.  Returns the lanes that finished
+    (now empty) as bits, lane k at bit k (with LANES > 64: every bit set
+    where any lane finished), so that the refill visits only those.
 
     A vectorised pass over each word of up to 64 lanes books what every lane
     needs booked and sets one bit per lane that needs attention; the scalar
@@ -1003,7 +1095,7 @@ def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active)
     limit) in the history banks, takes the state before it and resolves the
     event from there.  A lane that stepped in the block has made progress:
     its event cascade count restarts."""
-    freed = 0
+    freed = np.uint64(0)
     # the block's last state (SUBSTEPS, a constant: constant offsets, which vectorise)
     last = HIST + N_HIST * SUBSTEPS
     for word in range((LANES + 63) // 64):  # a constant count: one word for 64 lanes
@@ -1071,14 +1163,17 @@ def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active)
                         if not v * v > lanes[VLIM2 * LANES + i]:
                             continue
                         clean = True
+            # this lane's bit in the mask of finished lanes (all bits past 64 lanes)
+            lane_bit = np.uint64(1) << np.uint64(k) if LANES <= 64 else ~np.uint64(0)
             if clean:
                 # past the speed bound: the step is far too large
                 rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
                 finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
-                freed += 1
+                freed |= lane_bit
             elif not resolve_lane(lanes, i, settings, outputs, shared):
-                freed += 1
+                freed |= lane_bit
     return freed
+
 
 
 def _compact_lanes(lanes):
@@ -1129,9 +1224,17 @@ def _run_tile(start, stop, inputs, settings, outputs, shared):
             advance_lanes(lanes, settings, shared, SUBSTEPS, n_active)
         else:
             advance_lanes(lanes, history, settings, shared, SUBSTEPS, n_active)
-        if scan_lanes(lanes, history, settings, outputs, shared, SUBSTEPS, n_active) == 0:
+        freed = scan_lanes(lanes, history, settings, outputs, shared, SUBSTEPS, n_active)
+        if freed == 0:
             continue
-        if next_j < stop:
+        if next_j < stop and LANES <= 64:
+            # while trajectories are left every lane runs but those just
+            # finished: refill them by their bits, in lane order
+            while freed != 0:
+                i = np.int64(trailing_zeros(freed))
+                freed &= freed - np.uint64(1)
+                next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
+        elif next_j < stop:
             for i in range(LANES):
                 if lanes[TRAJ * LANES + i] < 0.0:
                     next_j = fill_lane(lanes, i, next_j, stop, inputs, settings, outputs, shared)
@@ -1233,6 +1336,15 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     n_hist = 3 + curvature + drag
     n_lane_fields = (N_LANE_FIELDS if variant.adaptive
                      else HIST + n_hist * (variant.substeps + 1))
+    # RK4's step in two lane loops (not in the general kernel, whose step
+    # is chosen at run time); their values pass through N_CARRY fields
+    # after the banks: constant offsets, as the lane fields'
+    split = (None if variant.adaptive or variant.runtime or variant.unroll != 1
+             or ramp_slope_curvature_fn not in SPLIT_STEP_FAMILIES
+             else STEPPERS[variant.method].split)
+    carry = n_lane_fields
+    if split is not None:
+        n_lane_fields += N_CARRY
     constants = {
         **variant.constants(),
         "ramp_height": ramp_height_fn,
@@ -1245,6 +1357,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         # (a smaller block stays in the L1 cache)
         "N_LANE_FIELDS": n_lane_fields,
         "N_HIST": n_hist, "HIST_K": 3, "HIST_WD": 3 + curvature,
+        "SPLIT_STEP": split is not None, "CARRY": carry,
         # every template calls `acceleration` by this global name
         "acceleration": acceleration if variant.friction else acceleration_frictionless,
     }
@@ -1297,6 +1410,11 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         )
     else:
         add("_with_drag", steppers._with_drag, **no_refcount)
+        # RK4's two parts, which its step calls (and the split vector loop)
+        add("rk4_first_stages", steppers._rk4_first_stages, **no_refcount)
+        add("rk4_last_stages", steppers._rk4_last_stages, **no_refcount)
+        constants["first_stages"] = constants["rk4_first_stages"]
+        constants["last_stages"] = constants["rk4_last_stages"]
         if variant.runtime:  # the method by its id in shared[1]
             for k, method in enumerate(STEPPERS.values()):
                 add(f"STEP_{k}", method.step, **no_refcount)
@@ -1309,7 +1427,9 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
             ("locate_event", _locate_event), ("locate_earliest", _locate_earliest),
             ("apply_step", _apply_step),
             ("start_adaptive", _no_adaptive_start),
-            ("step_and_check", _step_and_check), ("fixed_step_lane", _fixed_step_lane),
+            ("checked_step", _checked_step), ("step_and_check", _step_and_check),
+            ("first_stages_lane", _first_stages_lane), ("first_stages_all", _first_stages_all),
+            ("fixed_step_lane", _fixed_step_lane),
             ("start_block", _start_block), ("replay_lane", _replay_lane),
             ("step_from_bank", _step_from_bank), ("clean_steps", _clean_steps),
             ("restore_bank", _restore_bank),

@@ -40,6 +40,9 @@ ramp_slope_curvature = None  # bound per scene by jit.specialise
 # every fixed-step kernel for its steps' ends (kernel._step_and_check).
 STAGE_FROM_START = False
 ramp_slope_curvature_near = None
+# RK4's two parts, bound per scene (build_kernel specialises the templates
+# _rk4_first_stages and _rk4_last_stages under these names)
+rk4_first_stages = rk4_last_stages = None
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # bound per scene by jit.specialise
 FRICTION = True  # False: mu_k = 0 everywhere; no friction work (and `acceleration` frictionless)
 
@@ -73,10 +76,24 @@ def semi_implicit_euler_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shar
 
 
 def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
-    """Classical fourth-order Runge-Kutta on (x, v) and the integrals."""
+    """Classical fourth-order Runge-Kutta on (x, v) and the integrals: its
+    first two stages, then its last two and the sums (two parts so that the
+    vector loop can run them in two lane loops, kernel.SPLIT_STEP; called
+    together here, the arithmetic is the same)."""
+    a1, v2, a2, n1v, n2v2, fpp2v2, pd1, pd2 = rk4_first_stages(
+        x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, b, c)
+    return rk4_last_stages(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, b, c,
+                           a1, v2, a2, n1v, n2v2, fpp2v2, pd1, pd2)
+
+
+def _rk4_first_stages(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, b, c):
+    """RK4's stages 1 and 2: what the last two stages and the sums need of
+    them, ``(a1, v2, a2, n1 v, n2 v2, f''2 v2, pd1, pd2)`` (drag's powers
+    0.0 without drag)."""
     half = 0.5 * h
     n1 = normal_term(v, fpp, g)
     a1 = acceleration(n1, fp, q)
+    pd1 = pd2 = 0.0
     if DRAG:
         a1, pd1 = _with_drag(a1, v, fp, b, c, d)
 
@@ -90,7 +107,15 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
     a2 = acceleration(n2, fp2, q)
     if DRAG:
         a2, pd2 = _with_drag(a2, v2, fp2, b, c, d)
+    return a1, v2, a2, n1 * v, n2 * v2, fpp2 * v2, pd1, pd2
 
+
+def _rk4_last_stages(x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, b, c,
+                     a1, v2, a2, n1v, n2v2, fpp2v2, pd1, pd2):
+    """RK4's stages 3 and 4 and the step's sums, from the step's start and
+    what :func:`_rk4_first_stages` returned: ``(x_new, v_new, friction_work,
+    curvature_integral, drag_work)``."""
+    half = 0.5 * h
     x3 = fma(half, v2, x)
     v3 = fma(half, a2, v)
     if STAGE_FROM_START:
@@ -99,6 +124,7 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
         fp3, fpp3 = ramp_slope_curvature(x3, p0, p1, p2, p3, shared)
     n3 = normal_term(v3, fpp3, g)
     a3 = acceleration(n3, fp3, q)
+    pd3 = pd4 = 0.0
     if DRAG:
         a3, pd3 = _with_drag(a3, v3, fp3, b, c, d)
 
@@ -116,8 +142,8 @@ def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
     sixth = h / 6.0
     x_new = fma(sixth, v + 2.0 * (v2 + v3) + v4, x)
     v_new = fma(sixth, a1 + 2.0 * (a2 + a3) + a4, v)
-    work = q * sixth * (n1 * v + 2.0 * (n2 * v2 + n3 * v3) + n4 * v4) if FRICTION else 0.0
-    curvature = d * sixth * (fpp * v + 2.0 * (fpp2 * v2 + fpp3 * v3) + fpp4 * v4)
+    work = q * sixth * (n1v + 2.0 * (n2v2 + n3 * v3) + n4 * v4) if FRICTION else 0.0
+    curvature = d * sixth * (fpp * v + 2.0 * (fpp2v2 + fpp3 * v3) + fpp4 * v4)
     drag = 0.0
     if DRAG:
         drag = sixth * (pd1 + 2.0 * (pd2 + pd3) + pd4)
@@ -145,18 +171,21 @@ class FixedStepMethod(NamedTuple):
     x in direction d (explicit Euler: x + h v; semi-implicit: x + h v_new).
     ``linear_in_h``: x and v are linear in the step size (explicit Euler,
     drag included: its rate is the step start's): events are located in
-    closed form."""
+    closed form.  ``split``: the step in two parts, ``(first, last)``
+    (templates), with ``step`` = last(first): the vector loop runs them in
+    two lane loops (kernel.SPLIT_STEP)."""
     step: Callable
     order: int
     first_order: bool = False
     linear_in_h: bool = False
+    split: tuple | None = None
 
 
 #: fixed-step method name -> its method
 STEPPERS = {
     "euler": FixedStepMethod(euler_step, 1, first_order=True, linear_in_h=True),
     "semi_implicit_euler": FixedStepMethod(semi_implicit_euler_step, 1, first_order=True),
-    "rk4": FixedStepMethod(rk4_step, 4),
+    "rk4": FixedStepMethod(rk4_step, 4, split=(_rk4_first_stages, _rk4_last_stages)),
 }
 
 
