@@ -139,7 +139,7 @@ def test_the_plan_takes_the_short_form_only_where_steps_are_short(dt, v0_max, ra
                       else rw.Integrator(method, dt))
         plan = runner.plan_run(scene.replace(integrator=integrator), starts(v0_max))
         assert plan.variant.short_stages is (short and method != "dopri5")
-    other = rw.Scene(ramp=rw.Ramp.create("cycloid", radius=0.5, domain=(-1.0, 1.0)),
+    other = rw.Scene(ramp=rw.Ramp.create("circular_bowl", radius=2.0, domain=(-1.0, 1.0)),
                      integrator=rw.Integrator("rk4", dt))
     assert not runner.plan_run(other, starts(v0_max)).variant.short_stages
 

@@ -287,6 +287,25 @@ class _Circle(RampFamily):
         return self._sign
 
 
+def _step_reach(*, dt, v0, g, mu, drag_linear, drag_quadratic, slope, curvature, rise):
+    """A bound on |dx| of every stage point and step end of fixed steps of
+    size dt from the step's start (inf where none is proven), for bounds
+    ``slope`` on |f'|, ``curvature`` on |f''| and ``rise`` on the height
+    range.  The mechanical energy g f + v^2 (1 + f'^2)/2 never grows
+    (friction and drag remove it; the kernel reports a trajectory whose
+    energy rose by ENERGY_RISE_FACTOR of its scale as diverged), so v^2 <=
+    v_e^2 = (1 + ENERGY_RISE_FACTOR) (v0^2 (1 + f'^2) + 2 g rise).  A stage's
+    speed is at most v_e + dt A, with A a bound on |dv/dt| at speeds up to
+    2 v_e (held if dt A <= v_e), and every stage point and step end lies
+    within dt times that of the step's start."""
+    v_e = np.sqrt((1.0 + ENERGY_RISE_FACTOR) * (v0 * v0 * (1.0 + slope * slope) + 2.0 * g * rise))
+    fast = 2.0 * v_e
+    # |dv/dt| <= (|f'| |n| + mu |n|) / (1 + f'^2) + drag, |f'| / (1 + f'^2) <= 1/2
+    accel = ((0.5 + mu) * (g + fast * fast * curvature)
+             + (drag_linear + drag_quadratic * fast * np.sqrt(1.0 + slope * slope)) * fast)
+    return np.where(dt * accel <= v_e, dt * (v_e + dt * accel), np.inf)
+
+
 class _Cycloid(RampFamily):
     def _check_family(self, arrays, lo, hi, shared):
         r = arrays["radius"]
@@ -303,6 +322,27 @@ class _Cycloid(RampFamily):
                 f"[{lo!r}, {hi!r}] reaches a cusp of the cycloid at |x| = pi*radius = {lim} with radius = "
                 f"{_fmt(r[i])}{_at(r, i)} (a vertical tangent); the domain must lie strictly inside "
                 f"(-{lim}, {lim})")
+
+    def short_stages(self, values, domain, *, dt, v0, g, mu, drag_linear, drag_quadratic):
+        """(CYCLOID_GROWTH_0 + CYCLOID_GROWTH_1 |f'|) (1 + f'^2) |dx| / 4r <=
+        core.ramps.CYCLOID_SHORT_BOUND for every step, with |f'| at its
+        largest on the domain (at its largest |x|) and |dx| bounded by
+        :func:`_step_reach`."""
+        r = np.abs(np.asarray(values["radius"], dtype=float))
+        ax = max(abs(domain[0]), abs(domain[1]))
+        unique, inverse = np.unique(r, return_inverse=True)
+        # the core's own f' and f at the largest |x| (f = 0 at x = 0: its lowest)
+        slope = np.array([core.cycloid_slope_curvature(ax, ri, 0.0, 0.0, 0.0, None)[0]
+                          for ri in unique])[inverse.ravel()]
+        rise = np.array([core.cycloid_height(ax, ri, 0.0, 0.0, 0.0, None)
+                         for ri in unique])[inverse.ravel()]
+        r = r.ravel()
+        p = 1.0 + slope * slope
+        reach = _step_reach(dt=dt, v0=v0, g=g, mu=mu, drag_linear=drag_linear,
+                            drag_quadratic=drag_quadratic, slope=slope,
+                            curvature=p * p / (4.0 * r), rise=rise)
+        growth = core.CYCLOID_GROWTH_0 + core.CYCLOID_GROWTH_1 * slope
+        return bool(np.all(growth * p * reach / (4.0 * r) <= core.CYCLOID_SHORT_BOUND))
 
     def curvature_sign(self, values, domain, shared=None):
         return 1
@@ -326,26 +366,15 @@ class _Sine(RampFamily):
 
     def short_stages(self, values, domain, *, dt, v0, g, mu, drag_linear, drag_quadratic):
         """|k dx| <= core.ramps.SHORT_STAGE_ANGLE for every step, from a bound
-        on the speed.  The mechanical energy g f + v^2 (1 + f'^2)/2 never
-        grows (friction and drag remove it; the kernel reports a trajectory
-        whose energy rose by ENERGY_RISE_FACTOR of its scale as diverged), so
-        v^2 <= v_e^2 = (1 + ENERGY_RISE_FACTOR) (v0^2 (1 + f'^2) + 2 g (f_max
-        - f_min)).  A stage's speed is at most v_e + dt A, with A a bound on
-        |dv/dt| at speeds up to 2 v_e (held if dt A <= v_e), and every stage
-        point and step end lies within dt times that of the step's start."""
+        on the step's reach (:func:`_step_reach`)."""
         m, a, k = (np.abs(np.asarray(values[name], dtype=float))
                    for name in ("mean_slope", "amplitude", "wavenumber"))
         lo, hi = domain
         slope = m + a * k  # bounds |f'|, |f''| and the height range
-        curvature = a * k * k
-        rise = m * (hi - lo) + 2.0 * a
-        v_e = np.sqrt((1.0 + ENERGY_RISE_FACTOR) * (v0 * v0 * (1.0 + slope * slope) + 2.0 * g * rise))
-        fast = 2.0 * v_e
-        # |dv/dt| <= (|f'| |n| + mu |n|) / (1 + f'^2) + drag, |f'| / (1 + f'^2) <= 1/2
-        accel = ((0.5 + mu) * (g + fast * fast * curvature)
-                 + (drag_linear + drag_quadratic * fast * np.sqrt(1.0 + slope * slope)) * fast)
-        angle = k * dt * (v_e + dt * accel)
-        return bool(np.all((dt * accel <= v_e) & (angle <= core.SHORT_STAGE_ANGLE)))
+        reach = _step_reach(dt=dt, v0=v0, g=g, mu=mu, drag_linear=drag_linear,
+                            drag_quadratic=drag_quadratic, slope=slope, curvature=a * k * k,
+                            rise=m * (hi - lo) + 2.0 * a)
+        return bool(np.all(k * reach <= core.SHORT_STAGE_ANGLE))
 
     def curvature_sign(self, values, domain, shared=None):
         a = np.asarray(values["amplitude"], dtype=float)

@@ -364,7 +364,7 @@ def _resolve_lane_adaptive(lanes, i, settings, outputs, shared):
     h = lanes[H * LANES + i]
     if lanes[CASCADE * LANES + i] > MAX_EVENT_CASCADE or not h >= settings[SET_HMIN]:
         # the step size collapsed, or events keep coming without progress
-        rebase(lanes, i, t_now, settings)
+        rebase(lanes, i, t_now, settings, shared)
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
     h_end = min(h, t_max - t_now)

@@ -74,10 +74,11 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 # evaluation, steppers.ramp_slope_curvature_near), where it has one
 STAGE_FROM_START = False
 ramp_slope_curvature_near = None
-# fixed steps: fields per history bank (x, v, W, then K and WD where the
-# kernel has them) and where K and WD sit in a bank (see build_kernel)
-N_HIST = 5
-HIST_K, HIST_WD = 3, 4
+# fixed steps: fields per history bank (x, v, W, then WD where the kernel
+# has it; no K: the curvature integral is formed per mode, _mode_curvature)
+# and where WD sits in a bank (see build_kernel)
+N_HIST = 4
+HIST_WD = 3
 # fixed steps with a split step (RK4: steppers.FixedStepMethod.split): the
 # vector loop runs the step's first part for all lanes, then its last part,
 # the values between them in N_CARRY fields from CARRY (after the history
@@ -93,7 +94,7 @@ first_stages = last_stages = None
  resolve_linear, take_event, step_and_check, start_block, replay_lane,
  attempt_once, lane_parameters, uniform_parameters, locate_earliest,
  runtime_flags, clean_steps, step_from_bank, restore_bank, first_stages_lane,
- checked_step) = (None,) * 40
+ checked_step, mode_curvature) = (None,) * 41
 
 #: families whose RK4 runs its vector step in two lane loops (SPLIT_STEP),
 #: measured not slower (benchmarks/families.py, 1 thread, CPU time, two
@@ -144,13 +145,13 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
         first_stages_all(lanes, lanes, X, V, shared, h, uniform, n_active)
     if CHAINS == 2 and n_active > 0:
         for i in range(LANES // 2):  # constant offsets: provably disjoint halves
-            fixed_step_lane(lanes, lanes, history, i, X, V, W, K, WD, HIST + N_HIST, True, shared,
+            fixed_step_lane(lanes, lanes, history, i, X, V, W, WD, HIST + N_HIST, True, shared,
                             x_lo, x_hi, h, uniform)
-            fixed_step_lane(lanes, lanes, history, i + LANES // 2, X, V, W, K, WD, HIST + N_HIST,
+            fixed_step_lane(lanes, lanes, history, i + LANES // 2, X, V, W, WD, HIST + N_HIST,
                             True, shared, x_lo, x_hi, h, uniform)
     else:
         for i in range(n_active):
-            fixed_step_lane(lanes, lanes, history, i, X, V, W, K, WD, HIST + N_HIST, True, shared,
+            fixed_step_lane(lanes, lanes, history, i, X, V, W, WD, HIST + N_HIST, True, shared,
                             x_lo, x_hi, h, uniform)
     for visit in range(1, visits):
         src = HIST + N_HIST * visit * UNROLL  # the bank after the previous visit's last step
@@ -161,15 +162,15 @@ def _advance_lanes(lanes, history, settings, shared, n_substeps, n_active):
         if CHAINS == 2 and n_active > 0:
             for i in range(LANES // 2):
                 fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
-                                src + HIST_W, src + HIST_K, src + HIST_WD, dst, False, shared, x_lo,
+                                src + HIST_W, src + HIST_WD, dst, False, shared, x_lo,
                                 x_hi, h, uniform)
                 fixed_step_lane(lanes, history, history, i + LANES // 2, src + HIST_X,
-                                src + HIST_V, src + HIST_W, src + HIST_K, src + HIST_WD, dst,
+                                src + HIST_V, src + HIST_W, src + HIST_WD, dst,
                                 False, shared, x_lo, x_hi, h, uniform)
         else:
             for i in range(n_active):
                 fixed_step_lane(lanes, history, history, i, src + HIST_X, src + HIST_V,
-                                src + HIST_W, src + HIST_K, src + HIST_WD, dst, False, shared, x_lo,
+                                src + HIST_W, src + HIST_WD, dst, False, shared, x_lo,
                                 x_hi, h, uniform)
 
 
@@ -208,8 +209,8 @@ def _first_stages_lane(lanes, source, i, src_x, src_v, shared, h, uniform):
     lanes[(CARRY + 2) * LANES + i] = a2
     lanes[(CARRY + 3) * LANES + i] = n1v
     lanes[(CARRY + 4) * LANES + i] = n2v2
-    if not CONSTANT_CURVATURE:
-        lanes[(CARRY + 5) * LANES + i] = fpp2v2
+    # not fpp2v2 (field CARRY + 5 unused): fixed steps form the curvature
+    # integral per mode (_mode_curvature), not from the stages
     if DRAG:
         lanes[(CARRY + 6) * LANES + i] = pd1
         lanes[(CARRY + 7) * LANES + i] = pd2
@@ -267,10 +268,10 @@ def _checked_step(x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, 
     return x1, v1, dw, dk, dwd, fp1, fpp1, ok
 
 
-def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_wd, dst,
+def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_wd, dst,
                      keep_start, shared, x_lo, x_hi, h, uniform):
     """UNROLL fixed steps on lane i: the state read from fields ``src_x``,
-    ``src_v``, ``src_w``, ``src_k``, ``src_wd`` of ``source`` (the lanes or
+    ``src_v``, ``src_w``, ``src_wd`` of ``source`` (the lanes or
     the history) and each step's result written to the next history bank,
     the first at field ``dst`` of ``history``; ``keep_start`` (the block's
     first visit): the state read goes to bank 0 as well.  Every
@@ -289,7 +290,6 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_
     sn = lanes[SN * LANES + i]
     g, p0, p1, p2, p3 = lane_parameters(lanes, i, uniform)
     work = source[src_w * LANES + i]
-    curvature = 0.0 if CONSTANT_CURVATURE else source[src_k * LANES + i]
     drag_b = lanes[DRAG_B * LANES + i]
     drag_c = lanes[DRAG_C * LANES + i]
     drag_work = source[src_wd * LANES + i] if DRAG else 0.0
@@ -302,8 +302,6 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_
         history[(HIST + HIST_X) * LANES + i] = x
         history[(HIST + HIST_V) * LANES + i] = v
         history[(HIST + HIST_W) * LANES + i] = work
-        if not CONSTANT_CURVATURE:
-            history[(HIST + HIST_K) * LANES + i] = curvature
         if DRAG:
             history[(HIST + HIST_WD) * LANES + i] = drag_work
     # UNROLL steps with the state in registers: one load of each field per visit
@@ -316,7 +314,7 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_
                 lanes[CARRY * LANES + i], lanes[(CARRY + 1) * LANES + i],
                 lanes[(CARRY + 2) * LANES + i], lanes[(CARRY + 3) * LANES + i],
                 lanes[(CARRY + 4) * LANES + i],
-                0.0 if CONSTANT_CURVATURE else lanes[(CARRY + 5) * LANES + i],
+                0.0,  # fpp2v2: only the unused curvature integral reads it
                 lanes[(CARRY + 6) * LANES + i] if DRAG else 0.0,
                 lanes[(CARRY + 7) * LANES + i] if DRAG else 0.0)
             x, v, dw, dk, dwd, fp, fpp, ok = checked_step(
@@ -334,9 +332,6 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_k, src_
         history[bank + HIST_X * LANES] = x
         history[bank + HIST_V * LANES] = v
         history[bank + HIST_W * LANES] = work
-        if not CONSTANT_CURVATURE:
-            curvature += dk
-            history[bank + HIST_K * LANES] = curvature
         if DRAG:
             drag_work += dwd
             history[bank + HIST_WD * LANES] = drag_work
@@ -414,8 +409,6 @@ def _restore_bank(lanes, history, i, j):
     lanes[X * LANES + i] = history[(bank + HIST_X) * LANES + i]
     lanes[V * LANES + i] = history[(bank + HIST_V) * LANES + i]
     lanes[W * LANES + i] = history[(bank + HIST_W) * LANES + i]
-    if not CONSTANT_CURVATURE:
-        lanes[K * LANES + i] = history[(bank + HIST_K) * LANES + i]
     if DRAG:
         lanes[WD * LANES + i] = history[(bank + HIST_WD) * LANES + i]
 
@@ -460,8 +453,6 @@ def _replay_lane(lanes, i, settings, shared, n_steps):
         fp = fp1
         fpp = fpp1
         lanes[W * LANES + i] += dw
-        if not CONSTANT_CURVATURE:
-            lanes[K * LANES + i] += dk
         if DRAG:
             lanes[WD * LANES + i] += dwd
         steps += 1.0
@@ -486,10 +477,30 @@ def _current_time(lanes, i, h):
     return lanes[T * LANES + i] + (lanes[STEPS * LANES + i] - lanes[SM * LANES + i]) * h
 
 
-def _rebase(lanes, i, t_now, settings):
+def _mode_curvature(lanes, i, x, shared):
+    """The curvature integral of lane i's mode so far, from its start XM to x:
+    the integral of f'' d v dt = d df' is d (f'(x) - f'(XM)), exactly, as d
+    is constant within a mode (fixed steps: the one place where it is formed;
+    the adaptive pairs integrate it, as part of their error norm)."""
+    d = lanes[D * LANES + i]
+    if d == 0.0:  # no mode yet (a lane being loaded): XM is not set
+        return 0.0
+    p0 = lanes[P0 * LANES + i]
+    p1 = lanes[P1 * LANES + i]
+    p2 = lanes[P2 * LANES + i]
+    p3 = lanes[P3 * LANES + i]
+    fp_end, _ = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
+    fp_start, _ = ramp_slope_curvature(lanes[XM * LANES + i], p0, p1, p2, p3, shared)
+    return d * (fp_end - fp_start)
+
+
+def _rebase(lanes, i, t_now, settings, shared):
     """Start a new mode (after an event) at time t_now and the lane's current x:
-    bank the path travelled, reset the time base and the step limit."""
+    bank the path travelled (and, with fixed steps, the mode's curvature
+    integral), reset the time base and the step limit."""
     x = lanes[X * LANES + i]
+    if not ADAPTIVE and not CONSTANT_CURVATURE:
+        lanes[K * LANES + i] += mode_curvature(lanes, i, x, shared)
     lanes[S * LANES + i] += lanes[D * LANES + i] * (x - lanes[XM * LANES + i])
     lanes[XM * LANES + i] = x
     lanes[T * LANES + i] = t_now
@@ -528,8 +539,6 @@ def _apply_step(lanes, i, h, shared):
     lanes[X * LANES + i] = x1
     lanes[V * LANES + i] = v1
     lanes[W * LANES + i] += dw
-    if not CONSTANT_CURVATURE:
-        lanes[K * LANES + i] += dk
     if DRAG:
         lanes[WD * LANES + i] += dwd
     lanes[STEPS * LANES + i] += 1.0
@@ -672,8 +681,10 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     if CONSTANT_CURVATURE:  # the mean of a constant
         outputs[OUT_CONVEXITY, j] = lanes[FPP0 * LANES + i]
     else:
-        outputs[OUT_CONVEXITY, j] = (lanes[K * LANES + i] / path if path > 0.0
-                                     else lanes[FPP0 * LANES + i])
+        curvature = lanes[K * LANES + i]
+        if not ADAPTIVE:  # the last mode's, not yet banked (_mode_curvature)
+            curvature += mode_curvature(lanes, i, x, shared)
+        outputs[OUT_CONVEXITY, j] = curvature / path if path > 0.0 else lanes[FPP0 * LANES + i]
     outputs[OUT_NREV, j] = lanes[NREV * LANES + i]
     outputs[OUT_XLIFT, j] = x_lift
     outputs[OUT_XLIFT_PAPER, j] = x_paper
@@ -766,7 +777,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     if PAPER_CRITERION:
         lanes[XP * LANES + i] = np.nan
         lanes[PXM * LANES + i] = x
-    rebase(lanes, i, 0.0, settings)
+    rebase(lanes, i, 0.0, settings, shared)
     lanes[E0 * LANES + i] = specific_energy(f, fp, v, g)
     # divergence bound: the speed can never exceed what the energy allows
     scratch = N_LANE_FIELDS * LANES
@@ -819,7 +830,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
     t_now = current_time(lanes, i, h)
     lanes[CASCADE * LANES + i] += 1.0
     if lanes[CASCADE * LANES + i] > MAX_EVENT_CASCADE:
-        rebase(lanes, i, t_now, settings)
+        rebase(lanes, i, t_now, settings, shared)
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
     if not CARRY_SLOPE:
@@ -892,7 +903,7 @@ def _resolve_lane(lanes, i, settings, outputs, shared):
         if not bounded_there:
             # the partial step to the event is itself unusable (a step far too
             # long: e.g. its friction work comes out negative)
-            rebase(lanes, i, t_now, settings)
+            rebase(lanes, i, t_now, settings, shared)
             finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
             return False
     return take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, shared)
@@ -927,12 +938,12 @@ def _take_event(lanes, i, best_kind, best_h, h_end, t_now, settings, outputs, sh
         # frozen only by the step limit, with a rounding's worth of time left
         apply_step(lanes, i, h, shared)
         lanes[CASCADE * LANES + i] = 0.0
-        rebase(lanes, i, t_now + h, settings)
+        rebase(lanes, i, t_now + h, settings, shared)
         refresh_slope(lanes, i, shared)
         return True
     if best_kind == EV_NONE:
         # the state goes bad within this step and no event comes first
-        rebase(lanes, i, t_now, settings)
+        rebase(lanes, i, t_now, settings, shared)
         finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
         return False
     if best_h > 0.0:
@@ -994,7 +1005,7 @@ def _apply_event(lanes, i, kind, t_event, settings, outputs, shared):
             lanes[X * LANES + i] = lanes[XM * LANES + i]
     if PAPER_CRITERION:  # the mode ends here: look for eq. (26) along it
         paper_scan(lanes, i, lanes[X * LANES + i], shared)
-    rebase(lanes, i, t_event, settings)
+    rebase(lanes, i, t_event, settings, shared)
     if kind == EV_TIMEOUT:
         finish_lane(lanes, i, st.TIMEOUT, np.nan, outputs, shared)
         return False
@@ -1122,8 +1133,6 @@ def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active)
                 lanes[X * LANES + i] = x_end
                 lanes[V * LANES + i] = v
                 lanes[W * LANES + i] = history[(last + HIST_W) * LANES + i]
-                if not CONSTANT_CURVATURE:
-                    lanes[K * LANES + i] = history[(last + HIST_K) * LANES + i]
                 if DRAG:
                     lanes[WD * LANES + i] = history[(last + HIST_WD) * LANES + i]
                 lanes[STEPS * LANES + i] += n_substeps if clean else 0.0
@@ -1167,7 +1176,7 @@ def _scan_lanes(lanes, history, settings, outputs, shared, n_substeps, n_active)
             lane_bit = np.uint64(1) << np.uint64(k) if LANES <= 64 else ~np.uint64(0)
             if clean:
                 # past the speed bound: the step is far too large
-                rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings)
+                rebase(lanes, i, current_time(lanes, i, settings[SET_DT]), settings, shared)
                 finish_lane(lanes, i, st.DIVERGED, np.nan, outputs, shared)
                 freed |= lane_bit
             elif not resolve_lane(lanes, i, settings, outputs, shared):
@@ -1323,17 +1332,18 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     records one.  Without drag the inputs' drag rows are ignored; without
     ``paper_criterion`` the OUT_XLIFT_PAPER row is NaN; ``friction=False``
     gives the same results but perhaps the sign of a zero;
-    ``constant_curvature`` reports f'' itself as convexity_mean and, with
-    fixed steps, accumulates no curvature integral (the adaptive pairs keep
-    it: it is part of their error norm).
+    ``constant_curvature`` reports f'' itself as convexity_mean.  Fixed
+    steps form the curvature integral per mode, exactly (``_mode_curvature``),
+    not per step; the adaptive pairs integrate it (it is part of their error
+    norm).
     """
     if variant.closed_form:
         return straight.build_closed_form(variant, ramp_height_fn, ramp_slope_curvature_fn,
                                           cache=cache)
-    # fixed steps: the history banks of a block's steps, only the fields the kernel integrates
+    # fixed steps: the history banks of a block's steps, only the fields the
+    # kernel integrates (not the curvature integral: _mode_curvature)
     drag = variant.drag or variant.runtime
-    curvature = not variant.constant_curvature or variant.runtime
-    n_hist = 3 + curvature + drag
+    n_hist = 3 + drag
     n_lane_fields = (N_LANE_FIELDS if variant.adaptive
                      else HIST + n_hist * (variant.substeps + 1))
     # RK4's step in two lane loops (not in the general kernel, whose step
@@ -1356,7 +1366,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         # the lane array: fixed-step kernels leave out the adaptive bank B
         # (a smaller block stays in the L1 cache)
         "N_LANE_FIELDS": n_lane_fields,
-        "N_HIST": n_hist, "HIST_K": 3, "HIST_WD": 3 + curvature,
+        "N_HIST": n_hist, "HIST_WD": 3,
         "SPLIT_STEP": split is not None, "CARRY": carry,
         # every template calls `acceleration` by this global name
         "acceleration": acceleration if variant.friction else acceleration_frictionless,
@@ -1438,7 +1448,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         add("_paper_holds", _paper_holds, **no_refcount)
         add("paper_scan", _paper_scan, **no_refcount)
     for key, function in method_parts + (
-        ("current_time", _current_time), ("rebase", _rebase), ("make_empty", _make_empty),
+        ("current_time", _current_time), ("mode_curvature", _mode_curvature), ("rebase", _rebase), ("make_empty", _make_empty),
         ("new_lanes", _new_lanes),
         ("set_mode", _set_mode), ("refresh_slope", _refresh_slope),
         ("finish_lane", _finish_lane), ("apply_event", _apply_event),

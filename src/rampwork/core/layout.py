@@ -45,11 +45,12 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 N_FIELDS = 47
 # Fixed-step kernels: after the N_FIELDS fields, the history banks.  Bank j
 # (0 .. SUBSTEPS) holds the state after step j of the block (bank 0: its
-# start): x, v and the integrals W, K, WD at fields HIST + N_HIST j + HIST_X
-# .. HIST_WD, where a kernel has K and WD (kernel.build_kernel sets N_HIST
-# and their places: the bowl's banks hold x, v, W).  Kernels whose step runs
-# in two lane loops (RK4: kernel.SPLIT_STEP) have, after the banks,
-# kernel.N_CARRY fields for the values passed from the first loop to the second.
+# start): x, v and the integrals W, WD at fields HIST + N_HIST j + HIST_X
+# .. HIST_WD, where a kernel has WD (kernel.build_kernel sets N_HIST and its
+# place; no K: fixed steps form the curvature integral per mode).  Kernels
+# whose step runs in two lane loops (RK4: kernel.SPLIT_STEP) have, after the
+# banks, kernel.N_CARRY fields for the values passed from the first loop to
+# the second.
 HIST = N_FIELDS
 HIST_X, HIST_V, HIST_W = range(3)
 N_BANKED = 13

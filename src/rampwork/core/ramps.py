@@ -286,6 +286,72 @@ def cycloid_slope_curvature(x, p0, p1, p2, p3, shared):
 
 
 @jit
+def cycloid_slope_curvature_afresh(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    """The cycloid's f', f'' at a fixed step's stage points and end where the
+    plan does not bound the steps (``SLOPE_CURVATURE_NEAR``): evaluated
+    afresh, the arithmetic of a kernel without the short form."""
+    return cycloid_slope_curvature(x, p0, p1, p2, p3, shared)
+
+
+#: the short form's bound on (CYCLOID_GROWTH_0 + CYCLOID_GROWTH_1 |f'(x0)|) tau,
+#: tau = (1 + f'(x0)^2) |dx| / (4 r), for every stage and step end of a run
+#: (``rampwork.ramps``'s cycloid ``short_stages``)
+CYCLOID_SHORT_BOUND = 1.0 / 64.0
+#: the series' coefficients grow by at most this factor per order
+#: (~1.27 at f' = 0, the pole at the cusp; ~2.65 |f'| + 0.7 for |f'| >= 1)
+CYCLOID_GROWTH_0 = 1.5
+CYCLOID_GROWTH_1 = 3.0
+# f'(x0 + dx) = T0 + f''(x0) dx (1 + sum_k c_k(T0) tau^(k-1)), the series of
+# dz/dtau = (1 + 2 T0 z + (1 + T0^2) z^2)^2 (z = (f' - T0) / (1 + T0^2));
+# c_k is a polynomial in T0 of degree k - 1 and parity k - 1 (exact rationals)
+_C3 = (2.0 / 3.0, 14.0 / 3.0)
+_C4 = (11.0 / 3.0, 35.0 / 3.0)
+_C5 = (11.0 / 15.0, 226.0 / 15.0, 91.0 / 3.0)
+_C6 = (292.0 / 45.0, 2492.0 / 45.0, 728.0 / 9.0)
+_C7 = (292.0 / 315.0, 3952.0 / 105.0, 2884.0 / 15.0, 1976.0 / 9.0)
+_C8 = (3548.0 / 315.0, 18986.0 / 105.0, 1936.0 / 3.0, 5434.0 / 9.0)
+
+
+@jit
+def cycloid_slope_curvature_short(x, dx, fp, fpp, p0, p1, p2, p3, shared):
+    """f', f'' at x = x0 + dx from f', f'' at x0, where the plan bounds
+    (CYCLOID_GROWTH_0 + CYCLOID_GROWTH_1 |f'(x0)|) tau by
+    CYCLOID_SHORT_BOUND (tau = (1 + f'(x0)^2) |dx| / 4r): no Newton solve, no
+    division, no trig.
+
+    f' = tan(u/2) obeys df'/dx = f'' = (1 + f'^2)^2 / 4r, an ODE in f'
+    alone, so f'(x0 + dx) is its Taylor series from f'(x0) = T0, whose
+    first term f''(x0) dx is carried; the series stops at tau^7 (c_8).  The
+    coefficients c_k(T0) are the same for every stage of a step (the
+    compiler forms them once).  The first term left out, c_9 tau^8, is
+    below 2^-53 of |f'(x0)| + |f''(x0) dx| at the bound; the rest is
+    rounding (tests/test_cycloid_stages.py).  f'' = (1 + f'^2)^2 / 4r from f'
+    as in ``cycloid_slope_curvature``."""
+    a = 0.25 / p0  # hoisted out of the lane loops where r is uniform
+    t = fp
+    s = t * t
+    p = fma(t, t, 1.0)
+    tau = (p * a) * dx
+    c2 = 2.0 * t
+    c3 = fma(s, _C3[1], _C3[0])
+    c4 = t * fma(s, _C4[1], _C4[0])
+    c5 = fma(s, fma(s, _C5[2], _C5[1]), _C5[0])
+    c6 = t * fma(s, fma(s, _C6[2], _C6[1]), _C6[0])
+    c7 = fma(s, fma(s, fma(s, _C7[3], _C7[2]), _C7[1]), _C7[0])
+    c8 = t * fma(s, fma(s, fma(s, _C8[3], _C8[2]), _C8[1]), _C8[0])
+    q = fma(tau, c8, c7)
+    q = fma(tau, q, c6)
+    q = fma(tau, q, c5)
+    q = fma(tau, q, c4)
+    q = fma(tau, q, c3)
+    q = fma(tau, q, c2)
+    lead = fpp * dx
+    slope = fma(lead * tau, q, fma(fpp, dx, fp))
+    r2 = fma(slope, slope, 1.0)
+    return slope, (r2 * r2) * a
+
+
+@jit
 def cycloid_parameter(x, r):
     """The cycloid parameter u(x) in (-pi, pi) (for tests and diagnostics)."""
     sin_half, cos_half = _cycloid_half_angle(x, r)
@@ -382,10 +448,12 @@ def sine_slope_curvature_short(x, dx, fp, fpp, p0, p1, p2, p3, shared):
 #: (``steppers.ramp_slope_curvature_near``), for the families that have one.  Keyed by the function so that every kernel built on it gets
 #: it (the kernels' cache names derive from the family, not from the caller);
 #: ``general.build_switches`` adds its switch.
-SLOPE_CURVATURE_NEAR = {sine_slope_curvature: sine_slope_curvature_near}
+SLOPE_CURVATURE_NEAR = {sine_slope_curvature: sine_slope_curvature_near,
+                        cycloid_slope_curvature: cycloid_slope_curvature_afresh}
 #: the same for steps whose |k dx| the plan bounds by SHORT_STAGE_ANGLE
 #: (``KernelVariant.short_stages``)
-SLOPE_CURVATURE_SHORT = {sine_slope_curvature: sine_slope_curvature_short}
+SLOPE_CURVATURE_SHORT = {sine_slope_curvature: sine_slope_curvature_short,
+                         cycloid_slope_curvature: cycloid_slope_curvature_short}
 
 
 # ---------------------------------------------------------------------------
