@@ -11,8 +11,8 @@ curve with a fixed-step method and returns plain arrays::
     >>> out["status_name"]      # too slow: lifted_off; fast enough: exited
     array(['lifted_off', 'exited'], dtype='<U10')
 
-Scene files (``[curve]``), sweeps through :func:`rampwork.simulate` and
-DOP853 on curves are not there yet (docs/physics.md §5).
+Scene files (``[curve]``) and :func:`rampwork.simulate` take curves through
+:mod:`rampwork.curve_scene`; DOP853 on curves is not there yet (docs/physics.md §5).
 """
 
 from __future__ import annotations
@@ -279,7 +279,48 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     ``rampwork.STATUS_TABLE``), ``status_name`` and
     ``curve_kernel.OUTPUTS`` (``p_end``: the end's position parameter;
     ``nu_min``: the smallest normal force on the block's side along the way,
-    in N; ``curvature_mean``: ∫ kappa |ds| / ∫ |ds|)."""
+    in N; ``curvature_mean``: ∫ kappa |ds| / ∫ |ds|; ``path_length_X``:
+    ∫ |dX|, exact to rounding from the curve's points)."""
+    return prepare_curve_run(curve, s0=s0, u0=u0, mu_k=mu_k, mu_s=mu_s, g=g, m=m, method=method,
+                             dt=dt, t_max=t_max, rtol=rtol, atol=atol, contact=contact,
+                             drag_linear=drag_linear, drag_quadratic=drag_quadratic,
+                             **shape).run()
+
+
+@dataclass
+class CurveRun:
+    """A checked curve run, ready: its compiled kernel and packed inputs.
+    :meth:`compile` builds (or loads) the kernel apart from :meth:`run`."""
+
+    kernel: object
+    inputs: np.ndarray
+    shared: np.ndarray
+    arguments: tuple  # (dt, t_max, side, rtol, atol)
+    shape: tuple
+
+    def compile(self) -> None:
+        """Compile the kernel on the first trajectory with no time to run."""
+        out, status = curve_kernel.empty_outputs(1)
+        dt, _, side, rtol, atol = self.arguments
+        self.kernel(np.ascontiguousarray(self.inputs[:, :1]), self.shared, dt, 0.0, side, rtol,
+                    atol, out, status)
+
+    def run(self) -> dict[str, np.ndarray]:
+        out, status = curve_kernel.empty_outputs(self.inputs.shape[1])
+        self.kernel(self.inputs, self.shared, *self.arguments, out, status)
+        result = {name: out[k].reshape(self.shape) for k, name in enumerate(curve_kernel.OUTPUTS)}
+        result["status"] = status.reshape(self.shape)
+        result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(self.shape)
+        return result
+
+
+def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1.0,
+                      method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
+                      rtol: float = 1e-6, atol: float | None = None,
+                      contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
+                      **shape) -> CurveRun:
+    """Every check of :func:`simulate_curve` (same arguments), before any
+    work: the :class:`CurveRun` to compile and run."""
     if not isinstance(curve, Curve):
         raise ConfigError("curve", f"expected a rampwork.curves.Curve, got {type(curve).__name__}")
     if method not in curve_kernel.CURVE_STEPPERS:
@@ -355,9 +396,4 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
                               drag_linear=bool((flat["drag_linear"] > 0).any()),
                               drag_quadratic=bool((flat["drag_quadratic"] > 0).any()),
                               joints=joints)
-    out, status = curve_kernel.empty_outputs(n)
-    kernel(inputs, shared, dt, t_max, SIDES[curve.side], rtol, atol, out, status)
-    result = {name: out[k].reshape(shape_out) for k, name in enumerate(curve_kernel.OUTPUTS)}
-    result["status"] = status.reshape(shape_out)
-    result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(shape_out)
-    return result
+    return CurveRun(kernel, inputs, shared, (dt, t_max, SIDES[curve.side], rtol, atol), shape_out)
