@@ -131,6 +131,15 @@ def _check_brachistochrone(a):
                           f"(0, 2 pi] (pi: the bottom; 2 pi: the next cusp), got {float(t_end[bad][0])!r}")
 
 
+def _check_clothoid(a):
+    length, parameter = np.broadcast_arrays(a["length"], a["clothoid_parameter"])
+    turning = np.abs(a["curvature_start"]) * length + 0.5 * length ** 2 / parameter ** 2
+    bad = turning > 2 * TWO_PI
+    if bad.any():
+        raise ConfigError("curve.length", "the clothoid may turn by at most 4 pi (|curvature_start| "
+                          f"length + length^2 / (2 A^2)), got {float(turning[bad][0])!r} rad")
+
+
 FAMILIES: dict[str, CurveFamily] = {
     "loop": CurveFamily(
         "loop", "circle of radius R, centre (0, R): s = R theta, theta the angle from the "
@@ -160,6 +169,18 @@ FAMILIES: dict[str, CurveFamily] = {
         lambda a: (np.zeros_like(a["radius"] + a["end_angle"]),
                    4.0 * a["radius"] * (1.0 - np.cos(0.5 * a["end_angle"]))),
         check=_check_brachistochrone),
+    "clothoid": CurveFamily(
+        "clothoid", "Euler spiral from the origin: curvature kappa = curvature_start + s / A^2, "
+        "tangent angle phi = start_angle + curvature_start s + s^2 / (2 A^2), s in [0, length]",
+        (_p("clothoid_parameter", "m", "clothoid parameter A (kappa grows by 1/A^2 per metre)",
+            "positive"),
+         _p("length", "m", "arc length of the spiral", "positive"),
+         _p("curvature_start", "m-1", "curvature at the start", default=0.0),
+         _p("start_angle", "rad", "tangent angle at the start, from the horizontal", default=0.0)),
+        core_curves.clothoid_frame, core_curves.clothoid_point,
+        lambda a: (np.zeros_like(a["length"] + a["clothoid_parameter"]),
+                   a["length"] + 0 * a["clothoid_parameter"]),
+        check=_check_clothoid),
 }
 
 _GRAPH_FAMILIES: dict[str, CurveFamily] = {}
