@@ -69,7 +69,7 @@ SMALLEST_STEP = 1e-14
 
 def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol):
     """One step and whether it is clean (no event condition fired):
-    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean)``.  NaN fails every comparison,
+    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos_phi1)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
     exit (a first-order step from rest does not move p); passing it is.
     With ``JOINTS``, a step that crosses ``joint`` (a curvature jump; NaN:
@@ -82,7 +82,7 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
     if JOINTS:
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
-    return p1, u1, dw, dk, dx, dwd, err, nu1, clean
+    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -112,8 +112,8 @@ def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
     return direction, st.NOT_RUN
 
 
-def _x_travelled(p, x, cos_phi, p1, s0, s1, s2, s3, shared):
-    """``(|dX| summed from p to p1, X(p1), cos phi(p1))``: the horizontal
+def _x_travelled(p, x, cos_phi, p1, cos1, s0, s1, s2, s3, shared):
+    """``(|dX| summed from p to p1, X(p1))`` (``cos1``: cos phi at p1): the horizontal
     distance of one step, exact to rounding from the curve's closed-form
     point, not integrated.  Within a step p moves one way, so X is monotone
     between the points where cos phi changes sign; a step that crosses one
@@ -121,10 +121,9 @@ def _x_travelled(p, x, cos_phi, p1, s0, s1, s2, s3, shared):
     to adjacent floats (geometry alone, no integration).  A step that turns
     the tangent by more than pi could hide a pair of them: steps are far
     shorter than that on every family here."""
-    _, cos1, _, _ = curve_frame(p1, s0, s1, s2, s3, shared)
     x1, _ = curve_point(p1, s0, s1, s2, s3, shared)
     if not (cos_phi * cos1 < 0.0):
-        return abs(x1 - x), x1, cos1
+        return abs(x1 - x), x1
     lo = p
     hi = p1
     while True:
@@ -137,7 +136,7 @@ def _x_travelled(p, x, cos_phi, p1, s0, s1, s2, s3, shared):
         else:
             hi = mid
     x_turn, _ = curve_point(lo, s0, s1, s2, s3, shared)
-    return abs(x_turn - x) + abs(x1 - x_turn), x1, cos1
+    return abs(x_turn - x) + abs(x1 - x_turn), x1
 
 
 def _contact_sign(nu, kappa, side):
@@ -209,7 +208,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
             s3 = d if p == joint else (1.0 if p > joint else -1.0)
             if joint != joint:
                 s3 = 0.0
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
             p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
             atol)
         if not clean:
@@ -227,7 +226,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
                 else:
                     hi = mid
             step_size = hi
-            p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
+            p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
                 p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
             atol)
         if ADAPTIVE:
@@ -268,8 +267,9 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
             drag_work += dwd
         nu_min = min(nu_min, side * nu1)
         # an exit step ends on the end (p1 passes it by the bisection's last float)
-        dx_step, x_now, cos_now = x_travelled(p, x_now, cos_now, min(max(p1, p_lo), p_hi), s0, s1,
-                                              s2, s3, shared)
+        dx_step, x_now = x_travelled(p, x_now, cos_now, min(max(p1, p_lo), p_hi), cos1, s0, s1,
+                                     s2, s3, shared)
+        cos_now = cos1
         path_x += dx_step
         if clean:
             p = p1
