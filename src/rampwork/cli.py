@@ -128,18 +128,32 @@ def _examples_dir():
     return resources.files("rampwork").joinpath("examples")
 
 
+#: the folder of the curve scenes' examples (docs/physics.md §5), inside the examples
+CURVE_EXAMPLES = "curves"
+
+
+def _example_files() -> dict:
+    """name -> file of every shipped example: the ramp scenes, then the curve scenes."""
+    files = {}
+    for folder in (_examples_dir(), _examples_dir().joinpath(CURVE_EXAMPLES)):
+        for entry in folder.iterdir():
+            if entry.name.endswith(".toml"):
+                files.setdefault(entry.name[:-5], entry)
+    return files
+
+
 def example_names() -> list[str]:
     """Names of the example scenes shipped with the package."""
-    return sorted(entry.name[:-5] for entry in _examples_dir().iterdir() if entry.name.endswith(".toml"))
+    return sorted(_example_files())
 
 
 def example_text(name: str) -> str:
     """The text of one shipped example scene (``name`` with or without ``.toml``)."""
     stem = name[:-5] if name.endswith(".toml") else name
-    names = example_names()
-    if stem not in names:
-        raise ConfigError(f"example {name!r}", f"no such example; available: {', '.join(names)}")
-    return _examples_dir().joinpath(f"{stem}.toml").read_text(encoding="utf-8")
+    files = _example_files()
+    if stem not in files:
+        raise ConfigError(f"example {name!r}", f"no such example; available: {', '.join(sorted(files))}")
+    return files[stem].read_text(encoding="utf-8")
 
 
 def _title_of(text: str) -> str:
@@ -264,6 +278,10 @@ def cmd_run(args) -> int:
     scene, sweep = _load(args.scene, args.set)
     _check_output_is_not_an_input(args)
     _warn_shadowed(args.set, sweep)
+    if _is_curve(scene):  # a planar curve: rampwork.curve_cli
+        from .curve_cli import run_curve
+
+        return run_curve(args, scene, sweep)
     plan = _plan(args.scene, scene, sweep)
     try:
         job = SweepToFile(scene, sweep, args.output, chunk_size=args.chunk_size, threads=args.threads,
@@ -312,9 +330,19 @@ def cmd_run(args) -> int:
     return EXIT_OK
 
 
+def _is_curve(scene) -> bool:
+    from .curve_scene import CurveScene
+
+    return isinstance(scene, CurveScene)
+
+
 def cmd_check(args) -> int:
     scene, sweep = _load(args.scene, args.set)
     _warn_shadowed(args.set, sweep)
+    if _is_curve(scene):
+        from .curve_cli import check_curve
+
+        return check_curve(args, scene, sweep)
     plan = _plan(args.scene, scene, sweep)
     ramp = scene.ramp
     params = ", ".join(f"{k} = {v!r}" for k, v in ramp.params)

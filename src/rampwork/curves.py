@@ -11,8 +11,8 @@ curve with a fixed-step method and returns plain arrays::
     >>> out["status_name"]      # too slow: lifted_off; fast enough: exited
     array(['lifted_off', 'exited'], dtype='<U10')
 
-Scene files (``[curve]``), sweeps through :func:`rampwork.simulate` and
-DOP853 on curves are not there yet (docs/physics.md §5).
+Scene files (``[curve]``) and :func:`rampwork.simulate` take curves through
+:mod:`rampwork.curve_scene`; DOP853 on curves is not there yet (docs/physics.md §5).
 """
 
 from __future__ import annotations
@@ -131,6 +131,15 @@ def _check_brachistochrone(a):
                           f"(0, 2 pi] (pi: the bottom; 2 pi: the next cusp), got {float(t_end[bad][0])!r}")
 
 
+def _check_clothoid(a):
+    length, parameter = np.broadcast_arrays(a["length"], a["clothoid_parameter"])
+    turning = np.abs(a["curvature_start"]) * length + 0.5 * length ** 2 / parameter ** 2
+    bad = turning > 2 * TWO_PI
+    if bad.any():
+        raise ConfigError("curve.length", "the clothoid may turn by at most 4 pi (|curvature_start| "
+                          f"length + length^2 / (2 A^2)), got {float(turning[bad][0])!r} rad")
+
+
 FAMILIES: dict[str, CurveFamily] = {
     "loop": CurveFamily(
         "loop", "circle of radius R, centre (0, R): s = R theta, theta the angle from the "
@@ -160,6 +169,18 @@ FAMILIES: dict[str, CurveFamily] = {
         lambda a: (np.zeros_like(a["radius"] + a["end_angle"]),
                    4.0 * a["radius"] * (1.0 - np.cos(0.5 * a["end_angle"]))),
         check=_check_brachistochrone),
+    "clothoid": CurveFamily(
+        "clothoid", "Euler spiral from the origin: curvature kappa = curvature_start + s / A^2, "
+        "tangent angle phi = start_angle + curvature_start s + s^2 / (2 A^2), s in [0, length]",
+        (_p("clothoid_parameter", "m", "clothoid parameter A (kappa grows by 1/A^2 per metre)",
+            "positive"),
+         _p("length", "m", "arc length of the spiral", "positive"),
+         _p("curvature_start", "m-1", "curvature at the start", default=0.0),
+         _p("start_angle", "rad", "tangent angle at the start, from the horizontal", default=0.0)),
+        core_curves.clothoid_frame, core_curves.clothoid_point,
+        lambda a: (np.zeros_like(a["length"] + a["clothoid_parameter"]),
+                   a["length"] + 0 * a["clothoid_parameter"]),
+        check=_check_clothoid),
 }
 
 _GRAPH_FAMILIES: dict[str, CurveFamily] = {}
@@ -279,7 +300,48 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     ``rampwork.STATUS_TABLE``), ``status_name`` and
     ``curve_kernel.OUTPUTS`` (``p_end``: the end's position parameter;
     ``nu_min``: the smallest normal force on the block's side along the way,
-    in N; ``curvature_mean``: ∫ kappa |ds| / ∫ |ds|)."""
+    in N; ``curvature_mean``: ∫ kappa |ds| / ∫ |ds|; ``path_length_X``:
+    ∫ |dX|, exact to rounding from the curve's points)."""
+    return prepare_curve_run(curve, s0=s0, u0=u0, mu_k=mu_k, mu_s=mu_s, g=g, m=m, method=method,
+                             dt=dt, t_max=t_max, rtol=rtol, atol=atol, contact=contact,
+                             drag_linear=drag_linear, drag_quadratic=drag_quadratic,
+                             **shape).run()
+
+
+@dataclass
+class CurveRun:
+    """A checked curve run, ready: its compiled kernel and packed inputs.
+    :meth:`compile` builds (or loads) the kernel apart from :meth:`run`."""
+
+    kernel: object
+    inputs: np.ndarray
+    shared: np.ndarray
+    arguments: tuple  # (dt, t_max, side, rtol, atol)
+    shape: tuple
+
+    def compile(self) -> None:
+        """Compile the kernel on the first trajectory with no time to run."""
+        out, status = curve_kernel.empty_outputs(1)
+        dt, _, side, rtol, atol = self.arguments
+        self.kernel(np.ascontiguousarray(self.inputs[:, :1]), self.shared, dt, 0.0, side, rtol,
+                    atol, out, status)
+
+    def run(self) -> dict[str, np.ndarray]:
+        out, status = curve_kernel.empty_outputs(self.inputs.shape[1])
+        self.kernel(self.inputs, self.shared, *self.arguments, out, status)
+        result = {name: out[k].reshape(self.shape) for k, name in enumerate(curve_kernel.OUTPUTS)}
+        result["status"] = status.reshape(self.shape)
+        result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(self.shape)
+        return result
+
+
+def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1.0,
+                      method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
+                      rtol: float = 1e-6, atol: float | None = None,
+                      contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
+                      **shape) -> CurveRun:
+    """Every check of :func:`simulate_curve` (same arguments), before any
+    work: the :class:`CurveRun` to compile and run."""
     if not isinstance(curve, Curve):
         raise ConfigError("curve", f"expected a rampwork.curves.Curve, got {type(curve).__name__}")
     if method not in curve_kernel.CURVE_STEPPERS:
@@ -355,9 +417,4 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
                               drag_linear=bool((flat["drag_linear"] > 0).any()),
                               drag_quadratic=bool((flat["drag_quadratic"] > 0).any()),
                               joints=joints)
-    out, status = curve_kernel.empty_outputs(n)
-    kernel(inputs, shared, dt, t_max, SIDES[curve.side], rtol, atol, out, status)
-    result = {name: out[k].reshape(shape_out) for k, name in enumerate(curve_kernel.OUTPUTS)}
-    result["status"] = status.reshape(shape_out)
-    result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(shape_out)
-    return result
+    return CurveRun(kernel, inputs, shared, (dt, t_max, SIDES[curve.side], rtol, atol), shape_out)

@@ -385,6 +385,16 @@ def scene_from_dict(data: Mapping, source: str = "<dict>",
         if not isinstance(data, Mapping):
             raise ConfigError("", f"expected a table of settings, got {_type_name(data)}")
         data = dict(data)
+        if "curve" in data:  # a planar curve instead of a ramp (docs/physics.md §5)
+            from .curve_scene import check_sweep, scene_from_data
+
+            if "ramp" in data:
+                raise ConfigError("curve", "a scene has exactly one of [ramp] (y = f(x)) and "
+                                  "[curve] (a planar curve); this one has both")
+            scene = scene_from_data(data)
+            sweep = _sweep(data.get("sweep"), scene, coordinates)
+            check_sweep(scene, sweep)
+            return scene, sweep
         _check_keys("", data, TOP_KEYS)
         scene = _scene(data)
         sweep = _sweep(data.get("sweep"), scene, coordinates)
@@ -405,7 +415,8 @@ def _check_record_indices(scene: Scene, sweep: Sweep) -> None:
 
 def _scene(data: dict) -> Scene:
     if "ramp" not in data:
-        raise ConfigError("ramp", "required: a [ramp] table with family, its parameters and domain")
+        raise ConfigError("ramp", "required: a [ramp] table with family, its parameters and domain "
+                          "(or a [curve] table: a planar curve)")
     ramp = _ramp(_table("ramp", data["ramp"]))
     kwargs: dict[str, Any] = {"ramp": ramp}
     if "title" in data:
@@ -434,20 +445,7 @@ def _scene(data: dict) -> Scene:
     kwargs["drag"] = Drag(**{key: _number(f"drag.{key}", value, sweepable=True)
                              for key, value in drag.items()})
 
-    integrator = _table("integrator", data.get("integrator", {}))
-    _check_keys("integrator", integrator, INTEGRATOR_KEYS)
-    args: dict[str, Any] = {}
-    if "method" in integrator:
-        args["method"] = _string("integrator.method", integrator["method"])
-    for key in ("dt", "rtol", "atol", "dt_max"):
-        if key in integrator:
-            args[key] = _number(f"integrator.{key}", integrator[key])
-    if "closed_form" in integrator:
-        value = integrator["closed_form"]
-        if not isinstance(value, bool):
-            raise ConfigError("integrator.closed_form", f"expected true or false, got {_short(value)}")
-        args["closed_form"] = value
-    kwargs["integrator"] = Integrator(**args)
+    kwargs["integrator"] = integrator_from_table(_table("integrator", data.get("integrator", {})))
 
     record = _table("record", data.get("record", {}))
     _check_keys("record", record, RECORD_KEYS)
@@ -462,6 +460,23 @@ def _scene(data: dict) -> Scene:
         args["indices"] = tuple(_integer(f"record.indices[{i}]", v, 0) for i, v in enumerate(indices))
     kwargs["record"] = Record(**args)
     return Scene(**kwargs)
+
+
+def integrator_from_table(integrator: dict) -> Integrator:
+    """The :class:`Integrator` of an ``[integrator]`` table."""
+    _check_keys("integrator", integrator, INTEGRATOR_KEYS)
+    args: dict[str, Any] = {}
+    if "method" in integrator:
+        args["method"] = _string("integrator.method", integrator["method"])
+    for key in ("dt", "rtol", "atol", "dt_max"):
+        if key in integrator:
+            args[key] = _number(f"integrator.{key}", integrator[key])
+    if "closed_form" in integrator:
+        value = integrator["closed_form"]
+        if not isinstance(value, bool):
+            raise ConfigError("integrator.closed_form", f"expected true or false, got {_short(value)}")
+        args["closed_form"] = value
+    return Integrator(**args)
 
 
 def _ramp(table: dict) -> Ramp:
@@ -612,7 +627,7 @@ def _sweep(table, scene: Scene, coordinates: Mapping | None = None) -> Sweep:
     allowed = scene.axis_names
     for name in axes:
         if name not in allowed:
-            if name in scene.ramp.spec.renamed:  # a parameter's old name
+            if isinstance(scene, Scene) and name in scene.ramp.spec.renamed:  # an old name
                 raise scene.ramp.spec.unknown_parameter(f"sweep.axes.{name}", name, allowed)
             raise ConfigError("[sweep.axes]", f"unknown axis {_short(name)}; allowed: {', '.join(allowed)}")
     plans = {name: _axis_length(f"sweep.axes.{name}", spec, random, coordinates)
@@ -737,10 +752,16 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False
     ``stored``: the text stored with the dataset of the run: an axis of more
     than :data:`INLINE_VALUES` explicit values refers to the dataset's
     coordinate instead of listing them (read back by :func:`scene_from_dataset`)."""
-    if not isinstance(scene, Scene):
+    from .curve_scene import CurveScene, dump_curve_lines
+
+    if not isinstance(scene, (Scene, CurveScene)):
         raise ConfigError("scene", f"expected a rampwork.Scene, got {_type_name(scene)}")
     if sweep is not None and not isinstance(sweep, Sweep):
         raise ConfigError("sweep", f"expected a rampwork.Sweep or None, got {_type_name(sweep)}")
+    if isinstance(scene, CurveScene):
+        lines = ["# rampwork scene file (TOML): run it with `rampwork run FILE -o OUT.nc`"]
+        lines += dump_curve_lines(scene) + _tail_lines(scene, None, sweep, stored)
+        return "\n".join(lines) + "\n"
     if scene.ramp.family == CALLABLE:
         raise ConfigError("ramp", "a ramp of user functions (Ramp.from_functions) cannot be written "
                           "to a scene file; only the registered families can")
@@ -762,6 +783,12 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False
                 else _toml_float(f"ramp.{key}", value))
         lines.append(f"{_toml_key(key)} = {text}")
 
+    return "\n".join(lines + _tail_lines(scene, scene.record, sweep, stored)) + "\n"
+
+
+def _tail_lines(scene, record: Record | None, sweep: Sweep | None, stored: bool) -> list[str]:
+    """Friction, drag, integrator, record and sweep (a ramp's or a curve's)."""
+    lines: list[str] = []
     friction = scene.friction
     lines += ["", "[friction]", f"mu_k = {_toml_float('friction.mu_k', friction.mu_k)}",
               f"mu_s = {_toml_float('friction.mu_s', friction.mu_s)}"]
@@ -776,11 +803,11 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False
                                     else _toml_float(f"integrator.{key}", value)))
     if not integrator.closed_form:
         lines.append("closed_form = false")
-    record = scene.record
-    lines += ["", "[record]", f"count = {int(record.count)}", f"every = {int(record.every)}",
-              f"max_samples = {int(record.max_samples)}"]
-    if record.indices is not None:
-        lines.append(f"indices = {_toml_array('record.indices', [int(i) for i in record.indices])}")
+    if record is not None:
+        lines += ["", "[record]", f"count = {int(record.count)}", f"every = {int(record.every)}",
+                  f"max_samples = {int(record.max_samples)}"]
+        if record.indices is not None:
+            lines.append(f"indices = {_toml_array('record.indices', [int(i) for i in record.indices])}")
 
     if sweep is not None and sweep.design is not None:
         design = sweep.design
@@ -797,4 +824,4 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False
             lines.append("# { coordinate = NAME, num = N }: the values are the dataset's coordinate NAME "
                          "(rampwork.scene_from_dataset reads them)")
         lines += [f"{_toml_key(name)} = {text}" for name, text in texts]
-    return "\n".join(lines) + "\n"
+    return lines

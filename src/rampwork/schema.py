@@ -28,6 +28,9 @@ __all__ = [
     "VariableSpec",
     "OUTPUTS",
     "ADAPTIVE_OUTPUTS",
+    "CURVE_OUTPUTS",
+    "CURVE_AXES",
+    "curve_output_names",
     "DRAG_OUTPUTS",
     "output_names",
     "AXES",
@@ -258,6 +261,62 @@ def output_names(adaptive: bool, diagnostics: tuple[str, ...] = (), drag: bool =
 OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OUTPUT_LIST}
 
 # ----------------------------------------------------------------------------
+# per-trajectory outputs of a curve scene (docs/physics.md §5), in dataset
+# order: the ramp outputs that keep their meaning, and the curve's own
+# ----------------------------------------------------------------------------
+
+_CURVE_OUTPUT_LIST = (
+    OUTPUTS["status"],
+    OUTPUTS["t_end"],
+    _f("s_end", "m", "arc length position at the end", "s at the end of the trajectory"),
+    _f("u_end", "m s-1", "speed along the curve at the end",
+       "signed speed ds/dt at the end (> 0: towards larger s)"),
+    _f("X_end", "m", "horizontal position at the end", "X(s_end)"),
+    _f("Y_end", "m", "height at the end", "Y(s_end)"),
+    OUTPUTS["W_friction"],
+    OUTPUTS["W_energy"],
+    _f("W_path", "J", "straight-ramp friction work over the horizontal path travelled",
+       "mu_k m g integral of |dX| (horizontal path length including reversals and the turns "
+       "of a curve whose X is not monotone)"),
+    _f("W_excess", "J", "friction work in excess of the horizontal-path estimate",
+       "W_friction - W_path"),
+    OUTPUTS["energy_balance_error"],
+    _f("curvature_mean", "m-1", "mean signed curvature along the path travelled",
+       "integral of kappa |ds| / integral of |ds| (the turning per length); kappa(s0) where "
+       "nothing was travelled"),
+    _f("path_length", "m", "path length travelled", "integral of |ds|, reversals included"),
+    _f("path_length_X", "m", "horizontal path length travelled",
+       "integral of |dX|, reversals and vertical tangents included"),
+    _f("displacement", "m", "signed arc length travelled", "s_end - s0"),
+    _f("nu_min", "N", "smallest normal force along the path",
+       "the smallest contact force on the block's side, sampled at the start and at every "
+       "step's end (< 0 only on a bead, two_sided)"),
+    _f("s_lift_off", "m", "arc length position of lift-off",
+       "s where the normal force reached zero on a one-sided curve; NaN where none"),
+    _f("X_lift_off", "m", "horizontal position of lift-off", "X(s_lift_off); NaN where none"),
+    _f("Y_lift_off", "m", "height of lift-off", "Y(s_lift_off); NaN where none"),
+    _i("n_reversals", "int32", "number of reversals of direction",
+       "number of times the speed along the curve changed sign"),
+    OUTPUTS["steps"],
+    OUTPUTS["steps_rejected"],
+    OUTPUTS["W_drag"],
+)
+
+CURVE_OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _CURVE_OUTPUT_LIST}
+#: sweep axes of a curve scene besides AXES and the curve family's parameters
+CURVE_AXES: dict[str, VariableSpec] = {s.name: s for s in (
+    VariableSpec("s0", "m", "initial arc length position", "float64", "s at t = 0"),
+    VariableSpec("u0", "m s-1", "initial speed along the curve", "float64",
+                 "ds/dt at t = 0 (> 0: towards larger s)"),
+)}
+
+
+def curve_output_names(drag: bool = False) -> tuple[str, ...]:
+    """The per-trajectory variables of a curve run, in dataset order."""
+    return tuple(name for name in CURVE_OUTPUTS if drag or name not in DRAG_OUTPUTS)
+
+
+# ----------------------------------------------------------------------------
 # sweep axes that are not ramp-shape parameters
 # ----------------------------------------------------------------------------
 
@@ -353,6 +412,10 @@ def spec_attrs(spec: VariableSpec) -> dict[str, Any]:
 def _lookup(name: str, ramp_parameters: Iterable[Any] = ()) -> VariableSpec:
     if name in OUTPUTS:
         return OUTPUTS[name]
+    if name in CURVE_OUTPUTS:
+        return CURVE_OUTPUTS[name]
+    if name in CURVE_AXES:
+        return CURVE_AXES[name]
     if name in TRAJECTORY_RECORD:
         return TRAJECTORY_RECORD[name]
     try:
@@ -482,7 +545,7 @@ def global_attrs(
 
 
 def _check_registry() -> None:  # import-time sanity check of the tables above
-    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD):
+    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD, CURVE_OUTPUTS, CURVE_AXES):
         for key, spec in table.items():
             assert key == spec.name and spec.units and spec.long_name, spec
             np.dtype(spec.dtype)

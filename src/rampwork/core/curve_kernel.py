@@ -41,7 +41,7 @@ from .jit import fma, specialise
 
 # bound per scene by build_curve_kernel (compile-time constants)
 curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = None
-contact_sign = None
+contact_sign = x_travelled = None
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
 # family reads its last shape parameter as the branch (core/curves.py)
@@ -51,10 +51,11 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 
 #: rows of the kernel's float output, in order
 OUTPUTS = ("t_end", "p_end", "u_end", "X_end", "Y_end", "W_friction", "W_energy", "W_drag",
-           "energy_balance_error", "displacement", "path_length", "curvature_mean", "nu_min",
-           "p_lift_off", "X_lift_off", "Y_lift_off", "n_reversals", "steps", "steps_rejected")
-(O_T, O_P, O_U, O_X, O_Y, O_W, O_WE, O_WD, O_BAL, O_DISP, O_PATH, O_KMEAN, O_NUMIN, O_PLIFT,
- O_XLIFT, O_YLIFT, O_NREV, O_STEPS, O_REJECTED) = range(len(OUTPUTS))
+           "energy_balance_error", "displacement", "path_length", "path_length_X", "curvature_mean",
+           "nu_min", "p_lift_off", "X_lift_off", "Y_lift_off", "n_reversals", "steps",
+           "steps_rejected")
+(O_T, O_P, O_U, O_X, O_Y, O_W, O_WE, O_WD, O_BAL, O_DISP, O_PATH, O_XPATH, O_KMEAN, O_NUMIN,
+ O_PLIFT, O_XLIFT, O_YLIFT, O_NREV, O_STEPS, O_REJECTED) = range(len(OUTPUTS))
 #: rows of the kernel's per-trajectory input
 INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", "p_hi",
           "drag_b", "drag_c", "p_joint")
@@ -68,7 +69,7 @@ SMALLEST_STEP = 1e-14
 
 def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol):
     """One step and whether it is clean (no event condition fired):
-    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean)``.  NaN fails every comparison,
+    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos_phi1)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
     exit (a first-order step from rest does not move p); passing it is.
     With ``JOINTS``, a step that crosses ``joint`` (a curvature jump; NaN:
@@ -81,7 +82,7 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
     if JOINTS:
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
-    return p1, u1, dw, dk, dx, dwd, err, nu1, clean
+    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -109,6 +110,33 @@ def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
     if -fma(g, sin_phi, direction * mu_k * abs(nu)) * direction <= 0.0:
         return 0.0, st.STUCK
     return direction, st.NOT_RUN
+
+
+def _x_travelled(p, x, cos_phi, p1, cos1, s0, s1, s2, s3, shared):
+    """``(|dX| summed from p to p1, X(p1))`` (``cos1``: cos phi at p1): the horizontal
+    distance of one step, exact to rounding from the curve's closed-form
+    point, not integrated.  Within a step p moves one way, so X is monotone
+    between the points where cos phi changes sign; a step that crosses one
+    (a vertical tangent) is split there, the tangent found by bisection on p
+    to adjacent floats (geometry alone, no integration).  A step that turns
+    the tangent by more than pi could hide a pair of them: steps are far
+    shorter than that on every family here."""
+    x1, _ = curve_point(p1, s0, s1, s2, s3, shared)
+    if not (cos_phi * cos1 < 0.0):
+        return abs(x1 - x), x1
+    lo = p
+    hi = p1
+    while True:
+        mid = 0.5 * (lo + hi)
+        if mid == lo or mid == hi:
+            break
+        _, cos_mid, _, _ = curve_frame(mid, s0, s1, s2, s3, shared)
+        if cos_mid * cos_phi > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    x_turn, _ = curve_point(lo, s0, s1, s2, s3, shared)
+    return abs(x_turn - x) + abs(x1 - x_turn), x1
 
 
 def _contact_sign(nu, kappa, side):
@@ -141,10 +169,10 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     b = inputs[I_B, j]
     c = inputs[I_C, j]
     joint = inputs[I_JOINT, j]
-    _, y0 = curve_point(p, s0, s1, s2, s3, shared)
+    x_now, y0 = curve_point(p, s0, s1, s2, s3, shared)
     energy_start = fma(g, y0, 0.5 * u * u)
     t = 0.0
-    work = curvature = displacement = path = drag_work = 0.0
+    work = curvature = displacement = path = path_x = drag_work = 0.0
     reversals = 0
     steps = 0
     rejected = 0
@@ -155,6 +183,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     status = st.NOT_RUN
     p_lift = math.nan
     sin0, cos0, kappa0, _ = curve_frame(p, s0, s1, s2, s3, shared)
+    cos_now = cos0
     nu = normal_along_n(u, cos0, kappa0, g)
     nu_min = side * nu
     d = 0.0
@@ -179,7 +208,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
             s3 = d if p == joint else (1.0 if p > joint else -1.0)
             if joint != joint:
                 s3 = 0.0
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
             p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
             atol)
         if not clean:
@@ -197,7 +226,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
                 else:
                     hi = mid
             step_size = hi
-            p1, u1, dw, dk, dx, dwd, err, nu1, clean = try_step(
+            p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
                 p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
             atol)
         if ADAPTIVE:
@@ -237,6 +266,11 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
         if DRAG:
             drag_work += dwd
         nu_min = min(nu_min, side * nu1)
+        # an exit step ends on the end (p1 passes it by the bisection's last float)
+        dx_step, x_now = x_travelled(p, x_now, cos_now, min(max(p1, p_lo), p_hi), cos1, s0, s1,
+                                     s2, s3, shared)
+        cos_now = cos1
+        path_x += dx_step
         if clean:
             p = p1
             u = u1
@@ -282,6 +316,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     out[O_BAL, j] = m * (work + drag_work - (energy_start - energy_end))
     out[O_DISP, j] = displacement
     out[O_PATH, j] = path
+    out[O_XPATH, j] = path_x
     out[O_KMEAN, j] = curvature / path if path > 0.0 else kappa0
     out[O_NUMIN, j] = m * nu_min
     out[O_PLIFT, j] = p_lift
@@ -333,8 +368,9 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     built_try = build(_try_step, "try", curve_step=built_step)
     built_rest = build(_rest_rule, "rest")
     built_sign = build(_contact_sign, "sign")
+    built_x = build(_x_travelled, "xpath")
     built_trajectory = build(_trajectory, "trajectory", try_step=built_try, rest_rule=built_rest,
-                             contact_sign=built_sign)
+                             contact_sign=built_sign, x_travelled=built_x)
     return build(_batch, "batch", trajectory=built_trajectory)
 
 

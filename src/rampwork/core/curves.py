@@ -93,6 +93,45 @@ def cycloid_cusp_point(p, p0, p1, p2, p3, shared):
 
 
 # ---------------------------------------------------------------------------
+# clothoid (Euler spiral): the curvature grows linearly with arc length,
+# kappa = k0 + s / A^2, so phi = phi0 + k0 s + s^2 / (2 A^2) in closed form;
+# A = p0, length p1, k0 = p2, phi0 = p3, from the origin.  The frame needs no
+# Fresnel integral; the point (X, Y) = ∫ (cos phi, sin phi) ds does: it is
+# integrated by Gauss-Legendre (8 nodes) on panels of at most CLOTHOID_PANEL
+# rad of phase each, ~1e-16 relative (checked against scipy's Fresnel
+# integrals in the tests).  curves.py bounds the phase by 4 pi.
+
+#: the most phase per panel (rad): the 8-node rule's error is ~ panel^16 / 16!
+CLOTHOID_PANEL = 0.5
+_GL_NODES = (0.18343464249564978, 0.525532409916329, 0.7966664774136267, 0.9602898564975362)
+_GL_WEIGHTS = (0.36268378337836166, 0.3137066458778869, 0.22238103445337443, 0.10122853629037706)
+
+
+@jit
+def clothoid_frame(p, p0, p1, p2, p3, shared):
+    phi = p3 + p * (p2 + 0.5 * p / (p0 * p0))
+    return math.sin(phi), math.cos(phi), p2 + p / (p0 * p0), 1.0
+
+
+@jit
+def clothoid_point(p, p0, p1, p2, p3, shared):
+    phase = abs(p2) * abs(p) + 0.5 * p * p / (p0 * p0)
+    panels = 1 + int(phase / CLOTHOID_PANEL)
+    width = p / panels
+    x = 0.0
+    y = 0.0
+    for k in range(panels):
+        centre = (k + 0.5) * width
+        for j in range(4):
+            for sign in (-1.0, 1.0):
+                s = centre + sign * (0.5 * width) * _GL_NODES[j]
+                phi = p3 + s * (p2 + 0.5 * s / (p0 * p0))
+                x += _GL_WEIGHTS[j] * math.cos(phi)
+                y += _GL_WEIGHTS[j] * math.sin(phi)
+    return 0.5 * width * x, 0.5 * width * y
+
+
+# ---------------------------------------------------------------------------
 # a ramp y = f(x) as a curve, p = x: templates whose ``ramp_slope_curvature``
 # and ``ramp_height`` are a ramp family's (bound by ``jit.specialise``).
 ramp_slope_curvature = ramp_height = None
