@@ -23,8 +23,8 @@ from pathlib import Path
 
 from ._version import __version__
 from .errors import ClosedFormNotice, ConfigError, front_end, option
-from .terminal import (Progress, format_counts, format_seconds, scene_lines, si, status_counts,
-                       stored_sweep, sweep_shape)
+from .terminal import (Progress, check_lines, format_counts, format_seconds, scene_lines, si,
+                       status_counts, stored_sweep, sweep_shape)
 
 EXIT_OK = 0
 EXIT_ERROR = 2
@@ -353,15 +353,10 @@ def cmd_check(args) -> int:
     print(f"title         {scene.title}")
     print(f"ramp          {ramp.family}" + (f" ({params})" if params else "")
           + f" on [{ramp.domain[0]!r}, {ramp.domain[1]!r}] m")
-    print(f"friction      mu_k = {scene.friction.mu_k!r}, mu_s = {scene.friction.mu_s!r}; "
-          f"contact {scene.contact}")
-    if scene.drag.enabled:
-        print(f"drag          linear = {scene.drag.linear!r} s-1, "
-              f"quadratic = {scene.drag.quadratic!r} m-1")
+    physics, sweep_lines = check_lines(scene, sweep, plan.shape, plan.size)
+    print("\n".join(physics))
     print(f"integrator    {_integration(plan)}, t_max = {scene.t_max!r} s{steps}")
-    dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(plan.shape)}" if sweep.names else "no dims"
-    print(f"sweep         {sweep_shape(sweep)}; {dims}")
-    print(f"trajectories  {plan.size:,}")
+    print("\n".join(sweep_lines))
     print(f"kernel        {'; '.join(plan.effects)}")
     return EXIT_OK
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from . import io
 from .curve_scene import check, simulate_curve_scene
 from .errors import ConfigError
-from .terminal import format_counts, format_seconds, si, status_counts, sweep_shape
+from .terminal import check_lines, format_counts, format_seconds, si, status_counts, sweep_shape
 from .zarrstore import write_zarr
 
 EXIT_OK = 0
@@ -61,13 +61,8 @@ def check_curve(args, scene, sweep) -> int:
     print(f"{args.scene}: OK")
     print(f"title         {scene.title}")
     print(f"curve         {curve.family} ({params}), block on the {curve.side} side")
-    print(f"friction      mu_k = {scene.friction.mu_k!r}, mu_s = {scene.friction.mu_s!r}; "
-          f"contact {scene.contact}")
-    if scene.drag.enabled:
-        print(f"drag          linear = {scene.drag.linear!r} s-1, "
-              f"quadratic = {scene.drag.quadratic!r} m-1")
+    physics, sweep_lines = check_lines(scene, sweep, sweep.shape, sweep.size)
+    print("\n".join(physics))
     print(f"integrator    {scene.integrator.describe()}, t_max = {scene.t_max!r} s")
-    dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(sweep.shape)}" if sweep.names else "no dims"
-    print(f"sweep         {sweep_shape(sweep)}; {dims}")
-    print(f"trajectories  {sweep.size:,}")
+    print("\n".join(sweep_lines))
     return EXIT_OK

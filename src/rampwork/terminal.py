@@ -30,6 +30,18 @@ def sweep_shape(sweep) -> str:
     return "grid: " + " x ".join(f"{name} {len(values)}" for name, values in sweep.axes)
 
 
+def check_lines(scene, sweep, shape, size) -> tuple[list[str], list[str]]:
+    """The lines ``rampwork check`` prints for ramp and curve scenes alike:
+    (friction and drag, sweep and size); ``shape``, ``size``: the run's."""
+    lines = [f"friction      mu_k = {scene.friction.mu_k!r}, mu_s = {scene.friction.mu_s!r}; "
+             f"contact {scene.contact}"]
+    if scene.drag.enabled:
+        lines.append(f"drag          linear = {scene.drag.linear!r} s-1, "
+                     f"quadratic = {scene.drag.quadratic!r} m-1")
+    dims = f"dims ({', '.join(sweep.dims)}), shape {tuple(shape)}" if sweep.names else "no dims"
+    return lines, [f"sweep         {sweep_shape(sweep)}; {dims}", f"trajectories  {size:,}"]
+
+
 def status_counts(status) -> dict[str, int]:
     import numpy as np
 
