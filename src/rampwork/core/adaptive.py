@@ -68,7 +68,7 @@ SWING_SHRINK = 0.5
 X_ROUNDING = 4.5e-16
 
 
-def _project_energy(x1, v1, w1, fp1, fpp1, q, work, e0, g, p0, p1, p2, p3, shared, rtol,
+def _project_energy(x1, v1, w, w1, fp1, fpp1, q, work, e0, g, p0, p1, p2, p3, shared, rtol,
                     atol):
     """(x, v, w, residual): a step's end (x1, v1, w1) moved onto the energy
     balance E(x, v) + work = e0 (``work``: w1 plus the drag work), and the
@@ -92,7 +92,8 @@ def _project_energy(x1, v1, w1, fp1, fpp1, q, work, e0, g, p0, p1, p2, p3, share
     and f'' are not evaluated again at the moved point: the move is of the
     local error's size, and the next step's first stage carries it only
     multiplied by h.  W is not moved without friction (q = 0: it stays 0)
-    nor below 0; the drag work is not moved.)"""
+    nor below its value w at the step's start: friction work never
+    decreases; the drag work is not moved.)"""
     residual = specific_energy(ramp_height(x1, p0, p1, p2, p3, shared), fp1, v1, g) + work - e0
     sx = atol + rtol * abs(x1)
     sv = atol + rtol * abs(v1)
@@ -105,7 +106,7 @@ def _project_energy(x1, v1, w1, fp1, fpp1, q, work, e0, g, p0, p1, p2, p3, share
     # no division, the lane loop's bottleneck
     shift = residual * reciprocal_approx(norm2) if usable else 0.0
     return (x1 - shift * grad_x * sx, v1 - shift * grad_v * sv,
-            max(w1 - shift * (sw * sw), 0.0), residual if usable else 0.0)
+            max(w1 - shift * (sw * sw), w), residual if usable else 0.0)
 
 
 def _contact_holds(sn, n_end, n_low, n_high):
@@ -268,9 +269,9 @@ def _attempt(lanes, i, src, dst, shared, limits, uniform):
         work1 = w1
         if DRAG:
             work1 = w1 + wd1
-        x1, v1, w1, removed = project_energy(x1, v1, w1, fp7, fpp7, lanes[Q * LANES + i], work1,
-                                             lanes[E0 * LANES + i], g, p0, p1, p2, p3, shared,
-                                             rtol, atol)
+        x1, v1, w1, removed = project_energy(
+            x1, v1, w, w1, fp7, fpp7, lanes[Q * LANES + i], work1, lanes[E0 * LANES + i], g,
+            p0, p1, p2, p3, shared, rtol, atol)
         lanes[EPROJ * LANES + i] += removed if commit else 0.0
     lanes[(X + dst) * LANES + i] = x1 if commit else x
     lanes[(V + dst) * LANES + i] = v1 if commit else v
@@ -553,10 +554,10 @@ def _step_to_event(lanes, i, kind, h_event, h_end, settings, shared):
         if DRAG:
             work1 = w1 + lanes[WD * LANES + i]
         x1, v1, w1, removed = project_energy(
-            x1, v1, w1, fp1, fpp1, lanes[Q * LANES + i], work1, lanes[E0 * LANES + i],
-            lanes[G * LANES + i], lanes[P0 * LANES + i], lanes[P1 * LANES + i],
-            lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared, settings[SET_RTOL],
-            settings[SET_ATOL])
+            x1, v1, lanes[W * LANES + i], w1, fp1, fpp1, lanes[Q * LANES + i], work1,
+            lanes[E0 * LANES + i], lanes[G * LANES + i], lanes[P0 * LANES + i],
+            lanes[P1 * LANES + i], lanes[P2 * LANES + i], lanes[P3 * LANES + i], shared,
+            settings[SET_RTOL], settings[SET_ATOL])
         lanes[EPROJ * LANES + i] += removed
     lanes[X * LANES + i] = x1
     lanes[V * LANES + i] = v1
