@@ -12,8 +12,11 @@ shares no code with rampwork or scipy:
 * the starts of ``accuracy_cost.py --peers`` (--n of throughput.py's 10^6
   bowl grid, seed 0; 20,000 by default) on its bowl, mu_k = mu_s = mu;
 * rampwork's dopri5 and dop853 at rtol 1e-12 and 1e-13, with atol = rtol and
-  atol = 1e-4 rtol: W error median, maximum, their ratio (issue 19's target:
-  <= 10), by the reference's status, and the worst start;
+  atol = 1e-4 rtol, each with the energy projection (the default) and without
+  (``Integrator(project_energy=False)``; a rampwork without the option runs
+  its default once): W error median, maximum, their ratio (issue 19's
+  target: <= 10), by the reference's status, the worst start, and the
+  kernel's run time on one thread (best of --repeat, settings interleaved);
 * rampwork.reference's own W error, where accuracy_cost.py's cached reference
   for the same starts and the current reference.py is in --out.
 
@@ -47,6 +50,8 @@ def parse_args(argv=None):
     p = argparse.ArgumentParser(prog="tight_reference.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--n", type=int, default=20_000, help="starts (default %(default)d)")
     p.add_argument("--seed", type=int, default=0, help="as accuracy_cost.py --peers (default 0)")
+    p.add_argument("--repeat", type=int, default=3, help="timed runs per setting, interleaved "
+                   "(default %(default)d)")
     p.add_argument("--out", type=pathlib.Path, default=C.RESULTS_DIR)
     return p.parse_args(argv)
 
@@ -141,19 +146,21 @@ def main(argv=None):
     print(f"long-double reference (heyoka): {args.n:,} starts in {time.perf_counter() - started:.1f} s; "
           f"stuck {(ref_status == STUCK).sum()}, exited {(ref_status == EXITED).sum()}", flush=True)
     ramp = rw.Ramp.create("quadratic", curvature=T.CURVATURE, slope=T.SLOPE, height=T.HEIGHT, domain=T.DOMAIN)
-    headers = ["solver", "rtol", "atol", "W err median", "W err max", "max stuck", "max exited", "max/median",
-               "steps", "worst (x0, v0, mu)"]
+    headers = ["solver", "rtol", "atol", "projection", "W err median", "W err max", "max stuck",
+               "max exited", "max/median", "steps", "run s (1 thread)", "worst (x0, v0, mu)"]
     rows, results = [], []
 
-    def add(label, rtol, atol, out, steps):
+    def add(label, rtol, atol, out, steps, projection="-", run_s=None):
         same = out["status"] == ref_status
         s = summary(errors(out["W_friction"], ref_w), same, ref_status)
         j = s["worst"]
-        s.update(solver=label, rtol=rtol, atol=atol, wrong=int((~same).sum()), steps=steps)
+        s.update(solver=label, rtol=rtol, atol=atol, projection=projection, wrong=int((~same).sum()),
+                 steps=steps, run_s=run_s)
         results.append(s)
-        rows.append([label, f"{rtol:g}", f"{atol:g}", f"{s['median']:.2e}", f"{s['max']:.2e}",
+        rows.append([label, f"{rtol:g}", f"{atol:g}", projection, f"{s['median']:.2e}", f"{s['max']:.2e}",
                      f"{s['max_by_status']['stuck']:.2e}", f"{s['max_by_status']['exited']:.2e}",
                      f"{s['ratio']:.1f}", f"{steps:,}" if steps else "-",
+                     "-" if run_s is None else f"{run_s:.3f}",
                      f"{cols['x0'][j]:.4f}, {cols['v0'][j]:.4f}, {cols['mu'][j]:.4f}"])
         print(" | ".join(rows[-1]) + f" | wrong {s['wrong']}", flush=True)
 
@@ -162,12 +169,34 @@ def main(argv=None):
         saved = np.load(cached[-1])
         add(f"rampwork.reference ({cached[-1].name})", 2.5e-14, 1e-16,
             {"status": saved["ref_status"], "W_friction": saved["ref_W_friction"]}, 0)
+    runs = []  # (method, rtol, atol, projection label, scene)
     for method, rtol, atol in SETTINGS:
-        scene = rw.Scene(ramp=ramp, friction=rw.Friction(0.2), g=T.G, t_max=T.T_MAX,
-                         integrator=rw.Integrator(method, rtol=rtol, atol=atol, closed_form=False))
-        ds = rw.simulate(scene, rw.Sweep.cases(**cols))
+        for projection in (True, False):
+            try:
+                integrator = rw.Integrator(method, rtol=rtol, atol=atol, closed_form=False,
+                                           project_energy=projection)
+                label = "on" if projection else "off"
+            except TypeError:  # a rampwork without the option: its default, once
+                if not projection:
+                    continue
+                integrator = rw.Integrator(method, rtol=rtol, atol=atol, closed_form=False)
+                label = "(none)"
+            runs.append((method, rtol, atol, label,
+                         rw.Scene(ramp=ramp, friction=rw.Friction(0.2), g=T.G, t_max=T.T_MAX,
+                                  integrator=integrator)))
+    sweep = rw.Sweep.cases(**cols)
+    datasets, times = {}, {}
+    for round_ in range(max(args.repeat, 1) + 1):  # round 0 compiles (or loads the cache)
+        for k, (_, _, _, _, scene) in enumerate(runs):
+            ds = rw.simulate(scene, sweep, threads=1, kernel=C.KERNEL)
+            datasets[k] = ds
+            if round_:
+                times[k] = min(times.get(k, float("inf")), float(ds.attrs["run_time_s"]))
+    for k, (method, rtol, atol, label, _) in enumerate(runs):
+        ds = datasets[k]
         add(f"rampwork {method}", rtol, atol,
-            {"status": ds.status.values, "W_friction": ds.W_friction.values}, int(ds.steps.values.sum()))
+            {"status": ds.status.values, "W_friction": ds.W_friction.values}, int(ds.steps.values.sum()),
+            label, times[k])
     print()
     print(C.text_table(headers, rows))
     data = {"machine": C.machine_info(), "when": C.utc_now(), "n": args.n, "seed": args.seed,

@@ -117,6 +117,10 @@ DESCRIPTIONS = {
                               "`steps = 0`; `rampwork check` and `run` add \"(not used: ...)\" "
                               "to the integrator); `false` steps with `method` anyway, to measure "
                               "its error.",
+    "integrator.project_energy": "Adaptive methods only: `true` (default) projects every "
+                                 "accepted step onto the energy balance (docs/physics.md "
+                                 "1.6), and `energy_balance_error` sums the residuals it "
+                                 "removed; `false` integrates without it.",
     # [record]
     "record.count": "How many trajectories to record, spread evenly over the sweep.",
     "record.every": "A sample every `every` steps (and at every event).",

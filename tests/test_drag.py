@@ -127,14 +127,27 @@ def bowl_scene(integrator, **kwargs) -> rw.Scene:
 ])
 def test_energy_balance_with_friction_and_drag(method, settings, tolerance):
     """W_friction + W_drag equals the mechanical energy lost, to the method's
-    accuracy (relative to the energy lost), on trajectories with reversals."""
+    accuracy (relative to the energy lost), on trajectories with reversals.
+    The adaptive pairs project every step onto that balance
+    (docs/physics.md 1.6): their energy_balance_error, the residuals removed
+    plus what is left, must be within the same accuracy, and without the
+    projection it is W_friction + W_drag - W_energy as for fixed steps."""
     ds = rw.simulate(bowl_scene(rw.Integrator(method, **settings)), BOWL_SWEEP, threads=1)
-    w_f, w_d, w_e = ds.W_friction.values, ds.W_drag.values, ds.W_energy.values
-    assert ds.n_reversals.values.max() >= 2 and (ds.n_reversals.values > 0).mean() > 0.5
-    assert (w_f > 0).all() and (w_d > 0).all() and (w_e > 0).all()
-    error = w_f + w_d - w_e
-    assert np.allclose(ds.energy_balance_error.values, error, rtol=1e-12, atol=1e-15)
-    assert np.abs(error / w_e).max() < tolerance
+    runs = [ds]
+    if method in ("dopri5", "dop853"):
+        runs.append(rw.simulate(bowl_scene(rw.Integrator(method, project_energy=False, **settings)),
+                                BOWL_SWEEP, threads=1))
+    for k, run in enumerate(runs):
+        w_f, w_d, w_e = run.W_friction.values, run.W_drag.values, run.W_energy.values
+        assert run.n_reversals.values.max() >= 2 and (run.n_reversals.values > 0).mean() > 0.5
+        assert (w_f > 0).all() and (w_d > 0).all() and (w_e > 0).all()
+        error = w_f + w_d - w_e
+        assert np.abs(error / w_e).max() < tolerance
+        assert np.abs(run.energy_balance_error.values / w_e).max() < tolerance
+        if k == len(runs) - 1:  # not projected
+            assert np.allclose(run.energy_balance_error.values, error, rtol=1e-12, atol=1e-15)
+        else:  # projected: the balance holds far below the method's accuracy
+            assert np.abs(error / w_e).max() < 1e-3 * tolerance
     assert "W_friction + W_drag - W_energy" in ds.energy_balance_error.attrs["comment"]
 
 

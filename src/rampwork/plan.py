@@ -191,7 +191,7 @@ def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
         # g and the ramp's shape the same for every trajectory (not swept)
         uniform_parameters=not any(name in sweep.names
                                    for name in ("g",) + spec.parameter_names),
-        short_stages=short_stages)
+        short_stages=short_stages, project_energy=scene.integrator.project_energy)
     return RunPlan(scene, sweep, sweep.shape, size, variant)
 
 

@@ -93,6 +93,12 @@ class Integrator:
     ``closed_form`` (default True): where the scene has an exact solution (a
     straight ramp: constant acceleration between events), use it instead of
     stepping; False steps with ``method`` anyway, e.g. to measure its error.
+
+    ``project_energy`` (adaptive pairs, default True): after each accepted
+    step, move x and v onto the energy balance E(x, v) + W_friction + W_drag
+    = E(x0, v0) (docs/physics.md); energy_balance_error then reports the
+    corrections' sum.  False integrates without it (fixed-step methods never
+    project).
     """
 
     method: str = "rk4"
@@ -101,12 +107,15 @@ class Integrator:
     atol: float | None = None
     dt_max: float | None = None
     closed_form: bool = True
+    project_energy: bool = True
 
     def __post_init__(self):
         validate.choice("integrator.method", self.method, METHODS)
-        if not isinstance(self.closed_form, (bool, np.bool_)):
-            raise ConfigError("integrator.closed_form", f"expected true or false, got {self.closed_form!r}")
-        object.__setattr__(self, "closed_form", bool(self.closed_form))
+        for name in ("closed_form", "project_energy"):
+            value = getattr(self, name)
+            if not isinstance(value, (bool, np.bool_)):
+                raise ConfigError(f"integrator.{name}", f"expected true or false, got {value!r}")
+            object.__setattr__(self, name, bool(value))
         if self.method in ADAPTIVE_STEPPERS:
             rtol = DEFAULT_RTOL if self.rtol is None else validate.real("integrator.rtol", self.rtol)
             if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
@@ -126,6 +135,9 @@ class Integrator:
                     raise ConfigError("integrator.dt", f"the first step must be <= dt_max = "
                                       f"{self.dt_max!r}, got {self.dt!r}")
             return
+        if not self.project_energy:
+            raise ConfigError("integrator.project_energy", f"applies to adaptive methods "
+                              f"({', '.join(ADAPTIVE_STEPPERS)}); {self.method!r} never projects")
         for name in ("rtol", "atol", "dt_max"):
             if getattr(self, name) is not None:
                 raise ConfigError(f"integrator.{name}", f"applies to adaptive methods "
@@ -163,6 +175,8 @@ class Integrator:
             text += f", first step {self.dt!r} s"
         if self.dt_max is not None:
             text += f", dt_max = {self.dt_max!r} s"
+        if not self.project_energy:
+            text += ", no energy projection"
         return text
 
 

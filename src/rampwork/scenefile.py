@@ -43,6 +43,7 @@ Lengths in m, velocities in m/s, mass in kg, g in m/s^2, times in s::
     # rtol = 1e-8      # relative tolerance on x, v and the work integrals (default 1e-6)
     # atol = 1e-8      # absolute tolerance, SI units (default: rtol)
     # dt_max = 0.1     # s, the largest step (default: none)
+    # project_energy = false # no projection onto the energy balance (default true)
     closed_form = true # a straight ramp is solved exactly, without stepping;
                        # false steps anyway (to measure a method's error)
 
@@ -155,7 +156,7 @@ TOP_KEYS = ("title", "x0", "v0", "m", "g", "t_max", "contact", "diagnostics",
             "ramp", "friction", "drag", "integrator", "record", "sweep")
 FRICTION_KEYS = ("mu_k", "mu_s")
 DRAG_KEYS = ("linear", "quadratic")
-INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max", "closed_form")
+INTEGRATOR_KEYS = ("method", "dt", "rtol", "atol", "dt_max", "closed_form", "project_energy")
 RECORD_KEYS = ("count", "every", "max_samples", "indices")
 SWEEP_KEYS = ("kind", "axes", "n", "seed")
 FILE_SWEEP_KINDS = ("grid", "cases") + DESIGN_KINDS
@@ -471,11 +472,12 @@ def integrator_from_table(integrator: dict) -> Integrator:
     for key in ("dt", "rtol", "atol", "dt_max"):
         if key in integrator:
             args[key] = _number(f"integrator.{key}", integrator[key])
-    if "closed_form" in integrator:
-        value = integrator["closed_form"]
-        if not isinstance(value, bool):
-            raise ConfigError("integrator.closed_form", f"expected true or false, got {_short(value)}")
-        args["closed_form"] = value
+    for key in ("closed_form", "project_energy"):
+        if key in integrator:
+            value = integrator[key]
+            if not isinstance(value, bool):
+                raise ConfigError(f"integrator.{key}", f"expected true or false, got {_short(value)}")
+            args[key] = value
     return Integrator(**args)
 
 
@@ -803,6 +805,8 @@ def _tail_lines(scene, record: Record | None, sweep: Sweep | None, stored: bool)
                                     else _toml_float(f"integrator.{key}", value)))
     if not integrator.closed_form:
         lines.append("closed_form = false")
+    if not integrator.project_energy:
+        lines.append("project_energy = false")
     if record is not None:
         lines += ["", "[record]", f"count = {int(record.count)}", f"every = {int(record.every)}",
                   f"max_samples = {int(record.max_samples)}"]

@@ -167,8 +167,11 @@ _OUTPUT_LIST = (
         "J",
         "energy balance error",
         "W_friction - W_energy, or W_friction + W_drag - W_energy in runs with air drag "
-        "(all the mechanical energy lost goes to friction and drag): per-trajectory estimate "
-        "of the integration error",
+        "(all the mechanical energy lost goes to friction and drag), plus, for the adaptive "
+        "pairs, the sum of the energy residuals their projection onto that balance removed "
+        "after each step (Integrator.project_energy): per-trajectory estimate of the "
+        "integration error (the balance error the unprojected integrator would have made, "
+        "to first order)",
     ),
     _f(
         "convexity_mean",

@@ -33,14 +33,14 @@ from .ramps import SLOPE_CURVATURE_NEAR, SLOPE_CURVATURE_SHORT
 #: the choices a general kernel reads at run time, in the order of their
 #: slots (``settings[SET_RUNTIME + k]``, copied into the lane array)
 RUNTIME_FLAGS = ("ONE_SIDED", "CHECK_CONTACT", "PAPER_CRITERION", "CONSTANT_CURVATURE",
-                 "LINEAR_EVENTS", "DRAG", "DRAG_LINEAR", "DRAG_QUADRATIC")
+                 "LINEAR_EVENTS", "DRAG", "DRAG_LINEAR", "DRAG_QUADRATIC", "PROJECT_ENERGY")
 #: compile-time values of the general kernel: what every scene may need
 #: (pruning that changes no result is left out: f', f'' carried, every check on)
 MAXIMAL = {"ONE_SIDED": True, "CHECK_CONTACT": True, "PAPER_CRITERION": True,
            "CONSTANT_CURVATURE": False, "LINEAR_EVENTS": False, "DRAG": True,
            "DRAG_LINEAR": True, "DRAG_QUADRATIC": True, "CARRY_SLOPE": True,
            "WORK_SIGN_CHECK": True, "MONOTONE_STEP": False, "UNIFORM_PARAMETERS": False,
-           "FRICTION": True}
+           "FRICTION": True, "PROJECT_ENERGY": True}
 #: flags a template without the lane array may not read: their maximal value
 #: would change its results
 LANES_ONLY = ("ONE_SIDED", "PAPER_CRITERION", "CONSTANT_CURVATURE", "LINEAR_EVENTS")

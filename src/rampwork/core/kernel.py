@@ -692,6 +692,7 @@ def _finish_lane(lanes, i, status, x_lift, outputs, shared):
     outputs[OUT_NREJ, j] = lanes[NREJ * LANES + i]
     outputs[OUT_WORK_ERROR, j] = lanes[EEST * LANES + i]
     outputs[OUT_DRAG_WORK, j] = lanes[WD * LANES + i]
+    outputs[OUT_PROJECTED, j] = lanes[EPROJ * LANES + i]
     make_empty(lanes, i)
 
 
@@ -771,6 +772,7 @@ def _load_lane(lanes, i, j, inputs, settings, outputs, shared):
     lanes[CASCADE * LANES + i] = 0.0
     lanes[NREJ * LANES + i] = 0.0
     lanes[EEST * LANES + i] = 0.0
+    lanes[EPROJ * LANES + i] = 0.0
     lanes[PENDING * LANES + i] = 0.0
     lanes[FRESH * LANES + i] = 0.0
     lanes[D * LANES + i] = 0.0
@@ -1411,6 +1413,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
         constants["error_norm2_drag"] = pair.error_norm2_drag
         method_parts = (
             ("contact_holds", adaptive_parts._contact_holds),
+            ("project_energy", adaptive_parts._project_energy),
             ("attempt", adaptive_parts._attempt),
             ("attempt_once", adaptive_parts._attempt_once),
             ("start_adaptive", adaptive_parts._start_adaptive),

@@ -16,6 +16,8 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 # The paper's lift-off criterion (a diagnostic, when asked for): XP, the x
 # where it first held (NaN before); PXM, the x up to which it has been checked.
 # FRESH: 1 from a two-sided contact switch until the next accepted step.
+# EPROJ (adaptive pairs with the energy projection): the sum of the energy
+# residuals the projection removed (adaptive._project_energy), per unit mass.
 # Air drag (kernels built with drag only): DRAG_B, DRAG_C, the coefficients b
 # (1/s) and c (1/m); WD, the work against drag per unit mass.
 # Fixed-step methods only: CLEAN, 1.0 while every step of the current block
@@ -41,8 +43,8 @@ fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
  Q, D, SN, S, XM, SM, LIMIT, G, VLIM2, P0, P1, P2, P3,
  STEPS, CLEAN, TRAJ, NREV, MUK, MUS, E0, FPP0, CASCADE, ELIM,
  NREJ, EEST, PENDING, DRAG_B, DRAG_C, XP, PXM,
- BLOCK_STEPS, DSIGN, QH, AHEAD) = range(47)
-N_FIELDS = 47
+ BLOCK_STEPS, DSIGN, QH, AHEAD, EPROJ) = range(48)
+N_FIELDS = 48
 # Fixed-step kernels: after the N_FIELDS fields, the history banks.  Bank j
 # (0 .. SUBSTEPS) holds the state after step j of the block (bank 0: its
 # start): x, v and the integrals W, WD at fields HIST + N_HIST j + HIST_X
@@ -71,10 +73,12 @@ N_INPUTS = 11
 
 # --- per-trajectory outputs (per unit mass): rows of float64 (N_OUTPUTS, N) ----
 # OUT_DRAG_WORK: work against air drag (0 from kernels built without drag)
+# OUT_PROJECTED: the energy residuals removed by the adaptive pairs' energy
+# projection, summed (0 without it): part of energy_balance_error
 (OUT_STATUS, OUT_T, OUT_X, OUT_V, OUT_WORK, OUT_ENERGY_LOSS, OUT_PATH,
  OUT_CONVEXITY, OUT_NREV, OUT_XLIFT, OUT_STEPS, OUT_NREJ, OUT_WORK_ERROR,
- OUT_DRAG_WORK, OUT_XLIFT_PAPER) = range(15)
-N_OUTPUTS = 15
+ OUT_DRAG_WORK, OUT_XLIFT_PAPER, OUT_PROJECTED) = range(16)
+N_OUTPUTS = 16
 
 # --- scalar settings: float64 array ---------------------------------------------
 # SET_DT: the fixed step, or an adaptive method's first step (0: estimate it);

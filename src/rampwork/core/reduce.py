@@ -15,7 +15,7 @@ from .jit import jit
 from .threads import run_items
 from .layout import (OUT_CONVEXITY, OUT_DRAG_WORK, OUT_ENERGY_LOSS, OUT_NREJ, OUT_NREV, OUT_PATH,
                      OUT_STATUS, OUT_STEPS, OUT_T, OUT_V, OUT_WORK, OUT_WORK_ERROR, OUT_X,
-                     OUT_XLIFT, OUT_XLIFT_PAPER)
+                     OUT_XLIFT, OUT_XLIFT_PAPER, OUT_PROJECTED)
 
 #: trajectories per parallel work item (the runner hands out one item at a
 #: time, which suits the kernel's tiles; single trajectories would drown in
@@ -117,6 +117,10 @@ def _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, w_fricti
     if with_drag:
         drag = m * raw[OUT_DRAG_WORK, i]
         w_drag[i] = drag
-        energy_balance_error[i] = (friction + drag) - m * raw[OUT_ENERGY_LOSS, i]
+        energy_balance_error[i] = ((friction + drag) - m * raw[OUT_ENERGY_LOSS, i]
+                                   + m * raw[OUT_PROJECTED, i])
     else:
-        energy_balance_error[i] = friction - m * raw[OUT_ENERGY_LOSS, i]
+        # plus what the adaptive pairs' energy projection removed on the way
+        # (0 without it): the balance error the integrator made, to first order
+        energy_balance_error[i] = (friction - m * raw[OUT_ENERGY_LOSS, i]
+                                   + m * raw[OUT_PROJECTED, i])

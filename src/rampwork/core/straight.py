@@ -26,7 +26,7 @@ from .threads import TiledKernel
 from .layout import (OUT_DRAG_WORK, IN_G, IN_MUK, IN_MUS, IN_P0, IN_P1, IN_P2, IN_P3, IN_V0, IN_X0,
                      N_OUTPUTS, OUT_CONVEXITY, OUT_ENERGY_LOSS, OUT_NREJ, OUT_NREV, OUT_PATH,
                      OUT_STATUS, OUT_STEPS, OUT_T, OUT_V, OUT_WORK, OUT_WORK_ERROR, OUT_X,
-                     OUT_XLIFT, OUT_XLIFT_PAPER, SET_TMAX, SET_XHI, SET_XLO)
+                     OUT_XLIFT, OUT_XLIFT_PAPER, OUT_PROJECTED, SET_TMAX, SET_XHI, SET_XLO)
 from .physics import acceleration, departure_direction, specific_energy
 
 # bound per scene by build_closed_form
@@ -173,6 +173,7 @@ def _solve_trajectory(j, inputs, settings, outputs, shared, trace):
     outputs[OUT_STEPS, j] = 0.0
     outputs[OUT_NREJ, j] = 0.0
     outputs[OUT_WORK_ERROR, j] = 0.0
+    outputs[OUT_PROJECTED, j] = 0.0
     outputs[OUT_DRAG_WORK, j] = 0.0  # no drag: with drag a straight ramp is stepped
     return count
 

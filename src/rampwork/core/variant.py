@@ -44,7 +44,9 @@ class KernelVariant:
     (fixed steps on a family that evaluates a step's stage points and end
     from its start, ``ramps.SLOPE_CURVATURE_NEAR``: the plan has bounded
     every step's angle, so the family's short form
-    ``ramps.SLOPE_CURVATURE_SHORT`` serves).  Tuning knobs that do not
+    ``ramps.SLOPE_CURVATURE_SHORT`` serves); ``project_energy`` (adaptive
+    pairs only: each accepted step's end is projected onto the energy
+    balance, ``adaptive._project_energy``).  Tuning knobs that do not
     change results: ``lanes`` per block, ``substeps`` between scalar
     passes (default by method kind), ``chains`` (lane-loop halves side by
     side), ``unroll`` (fixed steps per lane visit).
@@ -66,6 +68,7 @@ class KernelVariant:
     constant_curvature: bool = False
     uniform_parameters: bool = False
     short_stages: bool = False
+    project_energy: bool = True
     lanes: int = 64
     substeps: int | None = None
     chains: int = 2
@@ -96,7 +99,10 @@ class KernelVariant:
                 if field.name not in ("family", "method", "paper_criterion", "friction"):
                     object.__setattr__(self, field.name, field.default)
             object.__setattr__(self, "check_contact", False)  # n = g > 0 throughout
+            object.__setattr__(self, "project_energy", False)
             return
+        if not self.adaptive:
+            object.__setattr__(self, "project_energy", False)  # the pairs' option only
         if self.adaptive:
             object.__setattr__(self, "carry_slope", True)  # the last stage evaluates them anyway
             object.__setattr__(self, "short_stages", False)  # stages evaluated afresh
@@ -159,7 +165,8 @@ class KernelVariant:
             (self.drag_linear, "_dragb"), (self.drag_quadratic, "_dragc"),
             (self.paper_criterion, "_paper"), (not self.friction, "_nofriction"),
             (self.constant_curvature, "_constk"), (self.linear_events, "_lin"),
-            (self.uniform_parameters, "_uniform"), (self.short_stages, "_short")) if on)
+            (self.uniform_parameters, "_uniform"), (self.short_stages, "_short"),
+            (self.adaptive and not self.project_energy, "_noproj")) if on)
         contact = "one" if self.one_sided else "two"
         if self.runtime:
             flags, contact = "", "runtime"
@@ -193,6 +200,7 @@ class KernelVariant:
             "DRAG_LINEAR": self.drag_linear,
             "DRAG_QUADRATIC": self.drag_quadratic,
             "DRAG": self.drag,
+            "PROJECT_ENERGY": self.project_energy,
         }
 
     @property
@@ -216,6 +224,8 @@ class KernelVariant:
                 words.append("air drag (" + " and ".join(
                     kind for kind, on in (("linear", self.drag_linear),
                                           ("quadratic", self.drag_quadratic)) if on) + ")")
+        if self.adaptive and self.project_energy:
+            words.append("energy projection")
         if self.paper_criterion:
             words.append("diagnostic x_lift_off_paper")
         return tuple(words)
