@@ -16,7 +16,8 @@ W_friction and t_end (the method's accuracy, not rounding: the two kernels
 integrate different state variables).  Rates are trajectory-steps per
 second (accepted steps / kernel time, best of ``--repeat`` interleaved
 rounds; ``--cpu-time``: the process's CPU time of the call, steadier on a
-shared machine with 1 thread); the ratio is y = f(x) / curve, the median of
+shared machine with 1 thread, but for y = f(x) the whole ``rw.simulate`` call
+against the curve kernel's call alone); the ratio is y = f(x) / curve, the median of
 the per-round ratios beside the ratio of the bests.  The curve kernel runs
 one trajectory at a time on one thread; the y = f(x) kernel is also timed on
 ``--threads`` (default 1 and 2).  Compile times are taken apart, on the
