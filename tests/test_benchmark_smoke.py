@@ -51,3 +51,25 @@ def test_events_benchmark_reports_the_ceiling_fractions(tmp_path):
     assert euler["grid_steps_per_s"] > 0 and euler["identical_steps_per_s"] > 0
     assert euler["grid_of_ceiling"] == euler["grid_steps_per_s"] / saved["best"]["this tree"][
         "division_ceiling_per_s"]
+
+
+def test_curves_benchmark_pairs_the_kernels_on_the_same_ramp(tmp_path):
+    done = _run("curves.py", "--n", "64", "--methods", "rk4",
+                "--cases", "graph:circular_bowl,arc:circular_bowl", "--threads", "1",
+                "--repeat", "1", "--baseline", str(ROOT / "src"), out=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    saved = json.loads(next(tmp_path.glob("curves-*.json")).read_text())
+    assert set(saved["pairs"]) == {"rk4/graph:circular_bowl", "rk4/arc:circular_bowl"}
+    for pair in saved["pairs"].values():
+        # rk4 at dt = 1 ms: the two kernels agree far below a millimetre and a millijoule
+        agree = pair["agreement"]
+        assert agree["status_equal"] == 1.0
+        assert agree["max_dx_end"] < 1e-8 and agree["max_dW_friction"] < 1e-8
+        assert pair["curve_steps"] == pair["graph_steps"] > 64  # fixed steps: the same count
+        rate = pair["graph"]["1"]
+        assert rate["ratio_of_bests"] == rate["steps_per_s"] / pair["curve_steps_per_s"]
+        assert pair["curve_compile_s"] > 0
+    best = saved["trees"]["best"]
+    assert set(best) == {"this tree", "baseline"}
+    assert set(best["baseline"]) == {"rk4/circular_bowl/1"}
+    assert best["baseline"]["rk4/circular_bowl/1"]["steps_per_s"] > 0
