@@ -26,7 +26,7 @@ from rampwork.cli import main
 
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
 STUDIES = ("exam_question", "excess_work_map", "sign_changing_convexity", "phase_portraits",
-           "liftoff_map", "sensitivity_excess_work")
+           "liftoff_map", "sensitivity_excess_work", "loop_the_loop")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -304,3 +304,13 @@ def test_plot_errors_are_one_line(outputs, tmp_path, capsys):
     assert main(["plot", str(cases), "-o", str(tmp_path / "p.jpg")]) == 2
     assert "use .png, .pdf or .svg" in one_line_error(capsys)
     assert not (tmp_path / "p.png").exists() and not (tmp_path / "p.jpg").exists()
+
+
+def test_loop_the_loop_threshold_is_sqrt_5gr_without_friction_and_grows_with_mu(outputs):
+    ds = dataset(outputs, "loop_the_loop")
+    free = np.sqrt(5 * 9.81 * ds["radius"])
+    np.testing.assert_allclose(ds["u0_threshold"].sel(mu=0.0), free, rtol=2e-5)
+    assert (ds["u0_threshold"].diff("mu") > 0).all()
+    # Coulomb friction has no length scale: the ratio to sqrt(5gR) is the same for every R
+    ratio = ds["threshold_ratio"]
+    np.testing.assert_allclose(ratio, ratio.isel(radius=0).broadcast_like(ratio), rtol=5e-5)
