@@ -26,7 +26,8 @@ from rampwork.cli import main
 
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
 STUDIES = ("exam_question", "excess_work_map", "sign_changing_convexity", "phase_portraits",
-           "liftoff_map", "sensitivity_excess_work")
+           "liftoff_map", "sensitivity_excess_work", "loop_the_loop",
+           "descent_two_points")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -304,3 +305,34 @@ def test_plot_errors_are_one_line(outputs, tmp_path, capsys):
     assert main(["plot", str(cases), "-o", str(tmp_path / "p.jpg")]) == 2
     assert "use .png, .pdf or .svg" in one_line_error(capsys)
     assert not (tmp_path / "p.png").exists() and not (tmp_path / "p.jpg").exists()
+
+
+def test_loop_the_loop_threshold_is_sqrt_5gr_without_friction_and_grows_with_mu(outputs):
+    ds = dataset(outputs, "loop_the_loop")
+    free = np.sqrt(5 * 9.81 * ds["radius"])
+    np.testing.assert_allclose(ds["u0_threshold"].sel(mu=0.0), free, rtol=2e-5)
+    assert (ds["u0_threshold"].diff("mu") > 0).all()
+    # Coulomb friction has no length scale: the ratio to sqrt(5gR) is the same for every R
+    ratio = ds["threshold_ratio"]
+    np.testing.assert_allclose(ratio, ratio.isel(radius=0).broadcast_like(ratio), rtol=5e-5)
+
+
+def test_descent_two_points_chord_and_cycloid_closed_forms_and_optimum(outputs):
+    ds = dataset(outputs, "descent_two_points")
+    g = 9.81
+    for i, (bx, by) in enumerate(zip(ds["B_x"].values, ds["B_y"].values)):
+        one = ds.isel(end=i)
+        length, beta = np.hypot(bx, by), np.arctan2(-by, bx)
+        mu = one["mu"].values
+        drive = g * (np.sin(beta) - mu * np.cos(beta))
+        moving = drive > 0
+        np.testing.assert_allclose(one["time"].sel(curve="chord").values[moving],
+                                   np.sqrt(2 * length / drive[moving]), rtol=1e-9)
+        r, theta = ds.attrs["cycloid_radius_m"][i], ds.attrs["cycloid_end_angle_rad"][i]
+        assert one["time"].sel(curve="cycloid", mu=0.0).item() == pytest.approx(
+            theta * np.sqrt(r / g), rel=1e-9)
+        assert np.isclose(r * (theta - np.sin(theta)), bx) and np.isclose(-r * (1 - np.cos(theta)), by)
+        best = one["time"].sel(curve="optimum")
+        engine = one["time"].sel(curve=["chord", "parabola", "circle", "cycloid"])
+        assert not (engine < best * (1 - 1e-6)).any()  # NaN (did not arrive) compares False
+        assert engine.notnull().any()
