@@ -126,6 +126,19 @@ def _check_clothoid(a):
                           f"length + length^2 / (2 A^2)), got {float(turning[bad][0])!r} rad")
 
 
+def _check_loop_track(a):
+    radius, blend = np.broadcast_arrays(a["radius"], a["blend_length"])
+    bad = blend >= TWO_PI * radius
+    if bad.any():
+        raise ConfigError("curve.blend_length", "the blends are too long for the loop: "
+                          "blend_length must be < 2 pi radius (the circle between them keeps "
+                          f"2 pi radius - blend_length), got {float(blend[bad][0])!r} for radius "
+                          f"{float(radius[bad][0])!r}")
+    bad = a["run_length"] < 0
+    if bad.any():
+        raise ConfigError("curve.run_length", f"must be >= 0, got {float(a['run_length'][bad][0])!r}")
+
+
 FAMILIES: dict[str, CurveFamily] = {
     "loop": CurveFamily(
         "loop", "circle of radius R, centre (0, R): s = R theta, theta the angle from the "
@@ -167,4 +180,17 @@ FAMILIES: dict[str, CurveFamily] = {
         lambda a: (np.zeros_like(a["length"] + a["clothoid_parameter"]),
                    a["length"] + 0 * a["clothoid_parameter"]),
         check=_check_clothoid),
+    "loop_track": CurveFamily(
+        "loop_track", "loop-the-loop: a flat in-run of length run_length from the origin, a "
+        "clothoid blend of length blend_length (curvature 0 to 1/R), a circle of radius R "
+        "(arc 2 pi R - blend_length), the mirrored blend and a flat out-run of length "
+        "run_length; curvature continuous, the block inside (side left); the blends cross "
+        "at the loop's foot (a track crossing itself, allowed here)",
+        (_p("radius", "m", "radius of the loop's circle", "positive"),
+         _p("blend_length", "m", "arc length of each clothoid blend", "positive"),
+         _p("run_length", "m", "length of the flat in-run and of the out-run", default=1.0)),
+        core_curves.loop_track_frame, core_curves.loop_track_point,
+        lambda a: (np.zeros_like(a["radius"] + a["blend_length"] + a["run_length"]),
+                   2.0 * a["run_length"] + a["blend_length"] + TWO_PI * a["radius"]),
+        check=_check_loop_track),
 }

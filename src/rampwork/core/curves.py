@@ -132,6 +132,66 @@ def clothoid_point(p, p0, p1, p2, p3, shared):
 
 
 # ---------------------------------------------------------------------------
+# loop-the-loop track: a flat in-run of length L = p2 from the origin along
+# +X, a clothoid blend of length b = p1 (kappa from 0 to 1/R, R = p0), a
+# circle of radius R over 2 pi R - b, a mirrored blend (kappa back to 0) and a
+# flat out-run of length L: total turning 2 pi, curvature continuous, so no
+# joint.  The blends' points are the clothoid's (A^2 = b R); the exit blend is
+# the entry one run backwards and mirrored, C(b) - C(b - tau) with Y negated.
+
+
+@jit
+def _track_blend(tau, b, radius):
+    return clothoid_point(tau, math.sqrt(b * radius), b, 0.0, 0.0, 0.0)
+
+
+@jit
+def loop_track_frame(p, p0, p1, p2, p3, shared):
+    sigma = p - p2
+    arc = 2.0 * math.pi * p0 - p1
+    if sigma <= 0.0:
+        return 0.0, 1.0, 0.0, 1.0
+    if sigma <= p1:
+        phi = 0.5 * sigma * sigma / (p1 * p0)
+        return math.sin(phi), math.cos(phi), sigma / (p1 * p0), 1.0
+    if sigma <= p1 + arc:
+        phi = 0.5 * p1 / p0 + (sigma - p1) / p0
+        return math.sin(phi), math.cos(phi), 1.0 / p0, 1.0
+    rest = 2.0 * p1 + arc - sigma  # arc length left in the exit blend
+    if rest >= 0.0:
+        phi = -0.5 * rest * rest / (p1 * p0)
+        return math.sin(phi), math.cos(phi), rest / (p1 * p0), 1.0
+    return 0.0, 1.0, 0.0, 1.0
+
+
+@jit
+def loop_track_point(p, p0, p1, p2, p3, shared):
+    sigma = p - p2
+    arc = 2.0 * math.pi * p0 - p1
+    if sigma <= 0.0:
+        return p, 0.0
+    if sigma <= p1:
+        x, y = _track_blend(sigma, p1, p0)
+        return p2 + x, y
+    bx, by = _track_blend(p1, p1, p0)
+    phi_in = 0.5 * p1 / p0
+    # the circle's centre, from the entry blend's end
+    cx = p2 + bx - p0 * math.sin(phi_in)
+    cy = by + p0 * math.cos(phi_in)
+    if sigma <= p1 + arc:
+        phi = phi_in + (sigma - p1) / p0
+        return cx + p0 * math.sin(phi), cy - p0 * math.cos(phi)
+    # the exit blend starts where the circle ends (phi = 2 pi - phi_in)
+    x3 = cx - p0 * math.sin(phi_in)
+    y3 = cy - p0 * math.cos(phi_in)
+    tau = min(sigma - p1 - arc, p1)
+    ex, ey = _track_blend(p1 - tau, p1, p0)
+    x4 = x3 + (bx - ex)
+    y4 = y3 - (by - ey)
+    return x4 + max(sigma - 2.0 * p1 - arc, 0.0), y4
+
+
+# ---------------------------------------------------------------------------
 # a ramp y = f(x) as a curve, p = x: templates whose ``ramp_slope_curvature``
 # and ``ramp_height`` are a ramp family's (bound by ``jit.specialise``).
 ramp_slope_curvature = ramp_height = None
