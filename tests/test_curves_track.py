@@ -64,19 +64,23 @@ def _clears(curve, speed):
     return out["status_name"] == "exited"
 
 
-@pytest.mark.parametrize("blend", [0.05, 0.01])
-def test_minimum_clearing_speed_approaches_sqrt_5gR(blend):
+@pytest.mark.parametrize("blend, tol", [(0.05, 1e-4), (0.01, 1e-5)])
+def test_minimum_clearing_speed_approaches_sqrt_5gR(blend, tol):
     """Frictionless: nu = u^2 / R - g at the top, u^2 = v0^2 - 4 g R there
-    on the circle; the blends (each turning blend / 2R) shift it by O(blend)."""
+    on the circle; the blends shift the clearing speed by a little (measured:
+    2e-5 at blend 0.05 R, 8e-7 at 0.01 R, 3e-8 at 0.002 R)."""
     radius = 1.0
     curve = Curve.create("loop_track", radius=radius, blend_length=blend, run_length=0.5)
     v_closed = math.sqrt(5 * G * radius)
-    speeds = v_closed * np.linspace(0.97, 1.03, 61)
+    speeds = v_closed * np.linspace(0.99, 1.01, 21)
     cleared = _clears(curve, speeds)
     assert not cleared[0] and cleared[-1]
-    v_min = speeds[np.argmax(cleared)]
-    assert (cleared[speeds >= v_min]).all()  # faster clears too
-    assert abs(v_min / v_closed - 1) <= 2 * blend / radius + 1e-3
+    assert (np.diff(cleared.astype(int)) >= 0).all()  # faster clears too
+    lo, hi = v_closed * 0.999, v_closed * 1.001
+    for _ in range(24):  # bisect on the entry speed
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if _clears(curve, mid) else (mid, hi)
+    assert abs(hi / v_closed - 1) <= tol
 
 
 def test_too_slow_lifts_off_in_the_upper_half():
