@@ -194,3 +194,111 @@ FAMILIES: dict[str, CurveFamily] = {
                    2.0 * a["run_length"] + a["blend_length"] + TWO_PI * a["radius"]),
         check=_check_loop_track),
 }
+
+
+# ---------------------------------------------------------------------------
+# the parametric spline through points: its data (points, end conditions)
+# is shared by all trajectories; it has no swept parameter.
+
+SPLINE_ENDS = ("natural", "clamped")
+#: samples per piece for the regularity and crossing checks
+SPLINE_SAMPLES = 32
+#: the least |r'| allowed: the chord-length parameter's |r'| is near 1, and
+#: below this the spline is a hairpin, its curvature ~ 1 / |r'|^2 (a cusp)
+SPLINE_MIN_SPEED = 1e-3
+
+SPLINE_FAMILY = CurveFamily(
+    "spline", "parametric C2 cubic spline through points (X_k, Y_k) in the chord-length "
+    "parameter t (t_{k+1} = t_k + |P_{k+1} - P_k|); dp/ds = 1 / |r'(t)|", (),
+    core_curves.spline_curve_frame, core_curves.spline_curve_point, None, position="t")
+
+
+def spline_shared(x_points, y_points, end="natural", end_tangents=None,
+                  allow_crossing=False) -> tuple[float, ...]:
+    """Check the points and build the spline's ``shared`` data (layout in
+    :mod:`rampwork.core.curves`).  ``end``: ``natural`` (r'' = 0 at both ends)
+    or ``clamped`` (``end_tangents``: the directions at the first and last
+    point, scaled to unit length, |r'| of the chord-length parameter).
+
+    Checks: at least 3 finite points, no two equal; the parametrisation
+    regular (|r'| >= SPLINE_MIN_SPEED at SPLINE_SAMPLES + 1 points of every piece and at
+    the minima of the quartic |r'|^2 on it); without ``allow_crossing``, no
+    two non-adjacent pieces cross (their polylines of SPLINE_SAMPLES chords)."""
+    from scipy.interpolate import CubicSpline
+
+    points = []
+    for where, values in (("curve.x_points", x_points), ("curve.y_points", y_points)):
+        array = np.asarray(values, dtype=np.float64).ravel()
+        if not np.isfinite(array).all():
+            raise ConfigError(where, "must be finite numbers")
+        points.append(array)
+    x, y = points
+    if x.size < 3 or y.size != x.size:
+        raise ConfigError("curve.x_points", f"needs at least 3 points and as many y_points, got "
+                          f"{x.size} and {y.size}")
+    pairs = np.stack([x, y], axis=1)
+    _, first = np.unique(pairs, axis=0, return_index=True)
+    if first.size != x.size:
+        dup = sorted(set(range(x.size)) - set(first.tolist()))[0]
+        raise ConfigError("curve.x_points", f"the points must be distinct: point {dup} "
+                          f"({x[dup]!r}, {y[dup]!r}) repeats an earlier one")
+    t = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+    if end not in SPLINE_ENDS:
+        raise ConfigError("curve.end", f"must be one of {', '.join(SPLINE_ENDS)}, got {end!r}")
+    if end == "clamped":
+        tangents = np.asarray(end_tangents, dtype=np.float64) if end_tangents is not None else None
+        if tangents is None or tangents.shape != (2, 2) or not np.isfinite(tangents).all() or \
+                (np.hypot(*tangents.T) == 0).any():
+            raise ConfigError("curve.end_tangents", "clamped ends need two nonzero tangent "
+                              f"directions ((dX0, dY0), (dX1, dY1)), got {end_tangents!r}")
+        tangents = tangents / np.hypot(*tangents.T)[:, None]
+        bc = ((1, tangents[0]), (1, tangents[1]))
+    else:
+        bc = "natural"
+    spline = CubicSpline(t, pairs, bc_type=bc)
+    coefficients = spline.c  # (4, pieces, 2): power form in t - t_k
+    _check_spline_regular(coefficients, np.diff(t))
+    if not allow_crossing:
+        _check_spline_crossing(spline, t)
+    steps = max(1, int(math.ceil(math.log2(x.size - 1))))
+    while (1 << steps) < x.size - 1:
+        steps += 1
+    return tuple(float(v) for v in np.concatenate(
+        [[x.size, steps], t, coefficients[:, :, 0].T.ravel(), coefficients[:, :, 1].T.ravel()]))
+
+
+def _check_spline_regular(c, widths):
+    for k, width in enumerate(widths):
+        dx = np.poly1d([3 * c[0, k, 0], 2 * c[1, k, 0], c[2, k, 0]])
+        dy = np.poly1d([3 * c[0, k, 1], 2 * c[1, k, 1], c[2, k, 1]])
+        speed2 = dx * dx + dy * dy
+        stationary = [r.real for r in speed2.deriv().roots if abs(r.imag) < 1e-12 and 0 <= r.real <= width]
+        where = np.concatenate([np.linspace(0.0, width, SPLINE_SAMPLES + 1), stationary])
+        if not (speed2(where) >= SPLINE_MIN_SPEED ** 2).all():
+            raise ConfigError("curve.x_points", f"the spline is not regular (|r'| < {SPLINE_MIN_SPEED}: a hairpin) on the piece "
+                              f"between points {k} and {k + 1}: space the points more evenly")
+
+
+def _segments_cross(a0, a1, b0, b1):
+    """Which chords a0-a1 cross which b0-b1 (proper crossings; arrays of points)."""
+    def orient(p, q, r):
+        return np.sign((q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1])
+                       - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0]))
+    a0, a1 = a0[:, None], a1[:, None]
+    b0, b1 = b0[None], b1[None]
+    return ((orient(a0, a1, b0) * orient(a0, a1, b1) < 0)
+            & (orient(b0, b1, a0) * orient(b0, b1, a1) < 0))
+
+
+def _check_spline_crossing(spline, t):
+    pieces = t.size - 1
+    samples = np.concatenate([np.linspace(t[k], t[k + 1], SPLINE_SAMPLES, endpoint=False)
+                              for k in range(pieces)] + [t[-1:]])
+    poly = spline(samples)
+    piece = np.repeat(np.arange(pieces), SPLINE_SAMPLES)
+    cross = _segments_cross(poly[:-1], poly[1:], poly[:-1], poly[1:])
+    cross &= np.abs(piece[:, None] - piece[None, :]) > 1  # adjacent pieces share an end
+    if cross.any():
+        i, j = np.argwhere(cross)[0]
+        raise ConfigError("curve.x_points", f"the spline crosses itself (pieces {piece[i]} and "
+                          f"{piece[j]}); pass allow_crossing=True where a crossing is meant")

@@ -25,8 +25,8 @@ from . import validate
 from .core import curve_kernel, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
-from .curve_families import (CONTACTS, FAMILIES, SIDES, TWO_PI,  # noqa: F401 (public)
-                             CurveFamily)
+from .curve_families import (CONTACTS, FAMILIES, SIDES, SPLINE_FAMILY,  # noqa: F401 (public)
+                             TWO_PI, CurveFamily, spline_shared)
 from .errors import ConfigError
 from .ramps import Ramp
 
@@ -55,12 +55,14 @@ def _graph_family(ramp: Ramp) -> CurveFamily:
 class Curve:
     """One curve: a family, its parameters (defaults applied), the side the
     block is on (``"left"``: the side the left normal points to, the family's
-    default; ``"right"``: the other) and, for a wrapped ramp, the ramp."""
+    default; ``"right"``: the other), for a wrapped ramp, the ramp, and for
+    a spline through points, its ``shared`` data (:meth:`through_points`)."""
 
     family: str
     params: tuple[tuple[str, float], ...]
     side: str = "left"
     ramp: Ramp | None = field(default=None, repr=False)
+    data: tuple[float, ...] | None = field(default=None, repr=False)
 
     @classmethod
     def create(cls, family: str, side: str | None = None, **params) -> "Curve":
@@ -83,14 +85,35 @@ class Curve:
             raise ConfigError("curve", f"expected a rampwork.Ramp, got {type(ramp).__name__}")
         return cls(f"graph_{ramp.spec.key}", ramp.params, "left", ramp)
 
+    @classmethod
+    def through_points(cls, x_points, y_points, *, end: str = "natural", end_tangents=None,
+                       side: str = "left", allow_crossing: bool = False) -> "Curve":
+        """The C2 cubic spline through the points (X_k, Y_k), in the
+        chord-length parameter t (``s0`` is a t): ``end`` ``natural`` or
+        ``clamped`` (``end_tangents``: the directions at both ends).  Checked
+        by :func:`rampwork.curve_families.spline_shared`."""
+        data = spline_shared(x_points, y_points, end, end_tangents, allow_crossing)
+        side = validate.choice("curve.side", side, tuple(SIDES))
+        return cls("spline", (), side, None, data)
+
     @property
     def spec(self) -> CurveFamily:
+        if self.data is not None:
+            return SPLINE_FAMILY
         return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
+
+    def _shared(self) -> np.ndarray:
+        if self.data is not None:
+            return np.asarray(self.data, dtype=np.float64)
+        return self.ramp.shared_array() if self.ramp is not None else np.zeros(1)
 
     def domain(self, **overrides) -> tuple[np.ndarray, np.ndarray]:
         """(p_lo, p_hi) of the position parameter."""
         if self.ramp is not None:
             return np.array([self.ramp.domain[0]]), np.array([self.ramp.domain[1]])
+        if self.data is not None:
+            n = int(self.data[0])
+            return np.array([0.0]), np.array([self.data[1 + n]])
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
 
     def evaluate(self, p) -> dict[str, np.ndarray]:
@@ -105,8 +128,7 @@ class Curve:
         p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=np.float64)).ravel())
         packed = [np.full(p.size, v) for _, v in self.params] + [np.zeros(p.size)] * (4 - len(self.params))
         out = np.empty((6, p.size))
-        shared = self.ramp.shared_array() if self.ramp is not None else np.zeros(1)
-        spec._evaluator(p, *packed, shared, out)
+        spec._evaluator(p, *packed, self._shared(), out)
         return dict(zip(("sin_phi", "cos_phi", "kappa", "dp_ds", "X", "Y"), out))
 
 
@@ -200,10 +222,12 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     rtol = validate.positive("integrator.rtol", rtol)
     atol = rtol if atol is None else validate.positive("integrator.atol", atol)
     spec = curve.spec
-    if curve.ramp is not None and shape:
-        raise ConfigError(f"curve.{next(iter(shape))}", "sweep a wrapped ramp's parameters "
-                          "with rampwork.simulate on the ramp")
-    arrays = spec.arrays({**dict(curve.params), **shape}) if curve.ramp is None else {
+    if (curve.ramp is not None or curve.data is not None) and shape:
+        raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (a "
+                          "spline's points are fixed; sweep a wrapped ramp's parameters with "
+                          "rampwork.simulate on the ramp)")
+    fixed = curve.ramp is not None or curve.data is not None
+    arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
     for name, value in (("s0", s0), ("u0", u0), ("mu_k", mu_k), ("mu_s", mu_k if mu_s is None else mu_s),
@@ -227,10 +251,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
               for a in arrays.values()]
     joint = None
-    if curve.ramp is not None:
-        p_lo = np.full(n, curve.ramp.domain[0])
-        p_hi = np.full(n, curve.ramp.domain[1])
-        shared = curve.ramp.shared_array()
+    if curve.ramp is not None or curve.data is not None:
+        lo, hi = curve.domain()
+        p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
+        shared = curve._shared()
     else:
         lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 
 from .jit import fma, jit
+from .ramps import _spline_interval
 
 # ---------------------------------------------------------------------------
 # loop: a circle of radius R = p0, centre (0, R), bottom at the origin;
@@ -189,6 +190,42 @@ def loop_track_point(p, p0, p1, p2, p3, shared):
     x4 = x3 + (bx - ex)
     y4 = y3 - (by - ey)
     return x4 + max(sigma - 2.0 * p1 - arc, 0.0), y4
+
+
+# ---------------------------------------------------------------------------
+# parametric cubic spline through points: p = t, the chord-length parameter
+# (t_0 = 0, t_{k+1} = t_k + |P_{k+1} - P_k|), so |r'(t)| is near 1 but not 1:
+# dp/ds = 1 / |r'(t)|, the kernel's u * dp_ds.  ``shared`` holds
+# [n, bisection steps, t_0..t_{n-1}, then per piece the power-form
+# coefficients (c0 dt^3 + c1 dt^2 + c2 dt + c3) of X, then of Y]
+# (rampwork.curve_families.spline_shared builds it with scipy's CubicSpline).
+
+
+@jit
+def _spline_piece(p, shared):
+    n = int(shared[0])
+    i = _spline_interval(p, shared)
+    return n, 2 + n + 4 * i, 2 + n + 4 * (n - 1) + 4 * i, p - shared[2 + i]
+
+
+@jit
+def spline_curve_frame(p, p0, p1, p2, p3, shared):
+    n, ix, iy, dt = _spline_piece(p, shared)
+    dx = (3.0 * shared[ix] * dt + 2.0 * shared[ix + 1]) * dt + shared[ix + 2]
+    dy = (3.0 * shared[iy] * dt + 2.0 * shared[iy + 1]) * dt + shared[iy + 2]
+    ddx = 6.0 * shared[ix] * dt + 2.0 * shared[ix + 1]
+    ddy = 6.0 * shared[iy] * dt + 2.0 * shared[iy + 1]
+    speed = math.sqrt(dx * dx + dy * dy)
+    inverse = 1.0 / speed
+    return dy * inverse, dx * inverse, (dx * ddy - dy * ddx) * (inverse * inverse * inverse), inverse
+
+
+@jit
+def spline_curve_point(p, p0, p1, p2, p3, shared):
+    n, ix, iy, dt = _spline_piece(p, shared)
+    x = ((shared[ix] * dt + shared[ix + 1]) * dt + shared[ix + 2]) * dt + shared[ix + 3]
+    y = ((shared[iy] * dt + shared[iy + 1]) * dt + shared[iy + 2]) * dt + shared[iy + 3]
+    return x, y
 
 
 # ---------------------------------------------------------------------------
