@@ -17,9 +17,7 @@ Scene files (``[curve]``) and :func:`rampwork.simulate` take curves through
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -27,161 +25,10 @@ from . import validate
 from .core import curve_kernel, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
+from .curve_families import (CONTACTS, FAMILIES, SIDES, SPLINE_FAMILY,  # noqa: F401 (public)
+                             TWO_PI, CurveFamily, spline_shared)
 from .errors import ConfigError
-from .ramps import ParameterSpec, Ramp
-
-TWO_PI = 2.0 * math.pi
-#: the sides a block can be on: the one the left normal N points to, or the other
-SIDES = {"left": 1.0, "right": -1.0}
-CONTACTS = ("one_sided", "two_sided")
-
-
-def _p(name, units, long_name, constraint="finite", default=None):
-    return ParameterSpec(name, units, long_name, constraint, default)
-
-
-class CurveFamily:
-    """A curve shape: its parameters, jitted frame and point, the domain of
-    its position parameter and the checks of its values."""
-
-    def __init__(self, name, description, parameters, frame, point, domain, *, side="left",
-                 position="s", check=None, key=None, cacheable=True, joint=None):
-        self.name = name
-        self.description = description
-        self.parameters = tuple(parameters)
-        self.frame = frame
-        self.point = point
-        self._domain = domain  # (arrays by name) -> (p_lo, p_hi) arrays
-        self.side = side
-        self.position = position  # what p is: "s" (arc length) or "x"
-        self._check = check
-        self._joint = joint  # (arrays by name) -> the joint's p (NaN: none), or None
-        self.key = key or name
-        self.cacheable = cacheable
-        self._evaluator = None
-
-    @property
-    def parameter_names(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.parameters)
-
-    def arrays(self, values: Mapping) -> dict[str, np.ndarray]:
-        """The parameters as float arrays, each checked (names the parameter,
-        the value and what is allowed)."""
-        unknown = [k for k in values if k not in self.parameter_names]
-        if unknown:
-            raise ConfigError(f"curve.{unknown[0]}", f"unknown parameter for curve family "
-                              f"{self.name!r}; allowed: {', '.join(self.parameter_names) or '(none)'}")
-        arrays = {}
-        for spec in self.parameters:
-            where = f"curve.{spec.name}"
-            if spec.name in values:
-                array = np.atleast_1d(np.asarray(values[spec.name]))
-                if array.dtype.kind not in "iuf":
-                    raise ConfigError(where, f"expected numbers, got {values[spec.name]!r}")
-                array = array.astype(np.float64)
-            elif spec.default is not None:
-                array = np.array([spec.default])
-            else:
-                raise ConfigError(where, f"required by curve family {self.name!r} "
-                                  f"({spec.long_name}, {spec.units})")
-            bad = ~np.isfinite(array) | ((array <= 0) if spec.constraint == "positive" else False)
-            if bad.any():
-                allowed = "a number > 0" if spec.constraint == "positive" else "a finite number"
-                raise ConfigError(where, f"must be {allowed}, got {float(array[bad][0])!r}")
-            arrays[spec.name] = array
-        if self._check is not None:
-            self._check(arrays)
-        return arrays
-
-    def joint(self, arrays) -> np.ndarray | None:
-        """Where the curvature jumps (steps end there), NaN where it does not;
-        None for a family without joints."""
-        return None if self._joint is None else np.asarray(self._joint(arrays), dtype=np.float64)
-
-    def domain(self, arrays) -> tuple[np.ndarray, np.ndarray]:
-        lo, hi = self._domain(arrays)
-        return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-
-
-def _check_loop(a):
-    entry, exit_ = a["entry_angle"], a["exit_angle"]
-    entry, exit_ = np.broadcast_arrays(entry, exit_)
-    bad = ~(exit_ > entry)
-    if bad.any():
-        raise ConfigError("curve.exit_angle", f"must be > entry_angle, got exit_angle "
-                          f"{float(exit_[bad][0])!r} and entry_angle {float(entry[bad][0])!r}")
-    bad = exit_ - entry > TWO_PI * (1 + 1e-15)
-    if bad.any():
-        raise ConfigError("curve.exit_angle", "the arc may turn at most once (exit_angle - "
-                          f"entry_angle <= 2 pi, a longer arc crosses itself), got "
-                          f"{float(exit_[bad][0] - entry[bad][0])!r} rad")
-
-
-def _check_quarter_pipe(a):
-    bad = a["flat_length"] < 0
-    if bad.any():
-        raise ConfigError("curve.flat_length", f"must be >= 0, got {float(a['flat_length'][bad][0])!r}")
-
-
-def _check_brachistochrone(a):
-    t_end = a["end_angle"]
-    bad = ~((t_end > 0) & (t_end <= TWO_PI))
-    if bad.any():
-        raise ConfigError("curve.end_angle", "the rolling circle's angle at the end must be in "
-                          f"(0, 2 pi] (pi: the bottom; 2 pi: the next cusp), got {float(t_end[bad][0])!r}")
-
-
-def _check_clothoid(a):
-    length, parameter = np.broadcast_arrays(a["length"], a["clothoid_parameter"])
-    turning = np.abs(a["curvature_start"]) * length + 0.5 * length ** 2 / parameter ** 2
-    bad = turning > 2 * TWO_PI
-    if bad.any():
-        raise ConfigError("curve.length", "the clothoid may turn by at most 4 pi (|curvature_start| "
-                          f"length + length^2 / (2 A^2)), got {float(turning[bad][0])!r} rad")
-
-
-FAMILIES: dict[str, CurveFamily] = {
-    "loop": CurveFamily(
-        "loop", "circle of radius R, centre (0, R): s = R theta, theta the angle from the "
-        "bottom, counter-clockwise; the block inside (side left)",
-        (_p("radius", "m", "radius of the loop", "positive"),
-         _p("entry_angle", "rad", "angle from the bottom where the arc starts", default=0.0),
-         _p("exit_angle", "rad", "angle from the bottom where the arc ends", default=TWO_PI)),
-        core_curves.loop_frame, core_curves.loop_point,
-        lambda a: (a["radius"] * a["entry_angle"], a["radius"] * a["exit_angle"]),
-        check=_check_loop),
-    "quarter_pipe": CurveFamily(
-        "quarter_pipe", "a flat of length L from the origin, then a quarter circle of radius R "
-        "curving up to a vertical tangent (curvature jumps from 0 to 1/R at s = L)",
-        (_p("radius", "m", "radius of the quarter circle", "positive"),
-         _p("flat_length", "m", "length of the flat before it", default=0.0)),
-        core_curves.quarter_pipe_frame, core_curves.quarter_pipe_point,
-        lambda a: (np.zeros_like(a["radius"] + a["flat_length"]),
-                   a["flat_length"] + 0.5 * math.pi * a["radius"]),
-        check=_check_quarter_pipe,
-        joint=lambda a: a["flat_length"] + 0 * a["radius"]),  # at 0 too: a start there
-    "brachistochrone": CurveFamily(
-        "brachistochrone", "cycloid from its cusp at the origin: X = r (t - sin t), "
-        "Y = -r (1 - cos t), t in [0, end_angle]; s = 4 r (1 - cos(t/2)), vertical at the cusp",
-        (_p("radius", "m", "radius of the rolling circle", "positive"),
-         _p("end_angle", "rad", "rolling angle at the end (pi: the bottom)", default=math.pi)),
-        core_curves.cycloid_cusp_frame, core_curves.cycloid_cusp_point,
-        lambda a: (np.zeros_like(a["radius"] + a["end_angle"]),
-                   4.0 * a["radius"] * (1.0 - np.cos(0.5 * a["end_angle"]))),
-        check=_check_brachistochrone),
-    "clothoid": CurveFamily(
-        "clothoid", "Euler spiral from the origin: curvature kappa = curvature_start + s / A^2, "
-        "tangent angle phi = start_angle + curvature_start s + s^2 / (2 A^2), s in [0, length]",
-        (_p("clothoid_parameter", "m", "clothoid parameter A (kappa grows by 1/A^2 per metre)",
-            "positive"),
-         _p("length", "m", "arc length of the spiral", "positive"),
-         _p("curvature_start", "m-1", "curvature at the start", default=0.0),
-         _p("start_angle", "rad", "tangent angle at the start, from the horizontal", default=0.0)),
-        core_curves.clothoid_frame, core_curves.clothoid_point,
-        lambda a: (np.zeros_like(a["length"] + a["clothoid_parameter"]),
-                   a["length"] + 0 * a["clothoid_parameter"]),
-        check=_check_clothoid),
-}
+from .ramps import Ramp
 
 _GRAPH_FAMILIES: dict[str, CurveFamily] = {}
 
@@ -208,12 +55,14 @@ def _graph_family(ramp: Ramp) -> CurveFamily:
 class Curve:
     """One curve: a family, its parameters (defaults applied), the side the
     block is on (``"left"``: the side the left normal points to, the family's
-    default; ``"right"``: the other) and, for a wrapped ramp, the ramp."""
+    default; ``"right"``: the other), for a wrapped ramp, the ramp, and for
+    a spline through points, its ``shared`` data (:meth:`through_points`)."""
 
     family: str
     params: tuple[tuple[str, float], ...]
     side: str = "left"
     ramp: Ramp | None = field(default=None, repr=False)
+    data: tuple[float, ...] | None = field(default=None, repr=False)
 
     @classmethod
     def create(cls, family: str, side: str | None = None, **params) -> "Curve":
@@ -236,14 +85,35 @@ class Curve:
             raise ConfigError("curve", f"expected a rampwork.Ramp, got {type(ramp).__name__}")
         return cls(f"graph_{ramp.spec.key}", ramp.params, "left", ramp)
 
+    @classmethod
+    def through_points(cls, x_points, y_points, *, end: str = "natural", end_tangents=None,
+                       side: str = "left", allow_crossing: bool = False) -> "Curve":
+        """The C2 cubic spline through the points (X_k, Y_k), in the
+        chord-length parameter t (``s0`` is a t): ``end`` ``natural`` or
+        ``clamped`` (``end_tangents``: the directions at both ends).  Checked
+        by :func:`rampwork.curve_families.spline_shared`."""
+        data = spline_shared(x_points, y_points, end, end_tangents, allow_crossing)
+        side = validate.choice("curve.side", side, tuple(SIDES))
+        return cls("spline", (), side, None, data)
+
     @property
     def spec(self) -> CurveFamily:
+        if self.data is not None:
+            return SPLINE_FAMILY
         return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
+
+    def _shared(self) -> np.ndarray:
+        if self.data is not None:
+            return np.asarray(self.data, dtype=np.float64)
+        return self.ramp.shared_array() if self.ramp is not None else np.zeros(1)
 
     def domain(self, **overrides) -> tuple[np.ndarray, np.ndarray]:
         """(p_lo, p_hi) of the position parameter."""
         if self.ramp is not None:
             return np.array([self.ramp.domain[0]]), np.array([self.ramp.domain[1]])
+        if self.data is not None:
+            n = int(self.data[0])
+            return np.array([0.0]), np.array([self.data[1 + n]])
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
 
     def evaluate(self, p) -> dict[str, np.ndarray]:
@@ -258,8 +128,7 @@ class Curve:
         p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=np.float64)).ravel())
         packed = [np.full(p.size, v) for _, v in self.params] + [np.zeros(p.size)] * (4 - len(self.params))
         out = np.empty((6, p.size))
-        shared = self.ramp.shared_array() if self.ramp is not None else np.zeros(1)
-        spec._evaluator(p, *packed, shared, out)
+        spec._evaluator(p, *packed, self._shared(), out)
         return dict(zip(("sin_phi", "cos_phi", "kappa", "dp_ds", "X", "Y"), out))
 
 
@@ -353,10 +222,12 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     rtol = validate.positive("integrator.rtol", rtol)
     atol = rtol if atol is None else validate.positive("integrator.atol", atol)
     spec = curve.spec
-    if curve.ramp is not None and shape:
-        raise ConfigError(f"curve.{next(iter(shape))}", "sweep a wrapped ramp's parameters "
-                          "with rampwork.simulate on the ramp")
-    arrays = spec.arrays({**dict(curve.params), **shape}) if curve.ramp is None else {
+    if (curve.ramp is not None or curve.data is not None) and shape:
+        raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (a "
+                          "spline's points are fixed; sweep a wrapped ramp's parameters with "
+                          "rampwork.simulate on the ramp)")
+    fixed = curve.ramp is not None or curve.data is not None
+    arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
     for name, value in (("s0", s0), ("u0", u0), ("mu_k", mu_k), ("mu_s", mu_k if mu_s is None else mu_s),
@@ -380,10 +251,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
               for a in arrays.values()]
     joint = None
-    if curve.ramp is not None:
-        p_lo = np.full(n, curve.ramp.domain[0])
-        p_hi = np.full(n, curve.ramp.domain[1])
-        shared = curve.ramp.shared_array()
+    if curve.ramp is not None or curve.data is not None:
+        lo, hi = curve.domain()
+        p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
+        shared = curve._shared()
     else:
         lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 
 from .jit import fma, jit
+from .ramps import _spline_interval
 
 # ---------------------------------------------------------------------------
 # loop: a circle of radius R = p0, centre (0, R), bottom at the origin;
@@ -129,6 +130,102 @@ def clothoid_point(p, p0, p1, p2, p3, shared):
                 x += _GL_WEIGHTS[j] * math.cos(phi)
                 y += _GL_WEIGHTS[j] * math.sin(phi)
     return 0.5 * width * x, 0.5 * width * y
+
+
+# ---------------------------------------------------------------------------
+# loop-the-loop track: a flat in-run of length L = p2 from the origin along
+# +X, a clothoid blend of length b = p1 (kappa from 0 to 1/R, R = p0), a
+# circle of radius R over 2 pi R - b, a mirrored blend (kappa back to 0) and a
+# flat out-run of length L: total turning 2 pi, curvature continuous, so no
+# joint.  The blends' points are the clothoid's (A^2 = b R); the exit blend is
+# the entry one run backwards and mirrored, C(b) - C(b - tau) with Y negated.
+
+
+@jit
+def _track_blend(tau, b, radius):
+    return clothoid_point(tau, math.sqrt(b * radius), b, 0.0, 0.0, 0.0)
+
+
+@jit
+def loop_track_frame(p, p0, p1, p2, p3, shared):
+    sigma = p - p2
+    arc = 2.0 * math.pi * p0 - p1
+    if sigma <= 0.0:
+        return 0.0, 1.0, 0.0, 1.0
+    if sigma <= p1:
+        phi = 0.5 * sigma * sigma / (p1 * p0)
+        return math.sin(phi), math.cos(phi), sigma / (p1 * p0), 1.0
+    if sigma <= p1 + arc:
+        phi = 0.5 * p1 / p0 + (sigma - p1) / p0
+        return math.sin(phi), math.cos(phi), 1.0 / p0, 1.0
+    rest = 2.0 * p1 + arc - sigma  # arc length left in the exit blend
+    if rest >= 0.0:
+        phi = -0.5 * rest * rest / (p1 * p0)
+        return math.sin(phi), math.cos(phi), rest / (p1 * p0), 1.0
+    return 0.0, 1.0, 0.0, 1.0
+
+
+@jit
+def loop_track_point(p, p0, p1, p2, p3, shared):
+    sigma = p - p2
+    arc = 2.0 * math.pi * p0 - p1
+    if sigma <= 0.0:
+        return p, 0.0
+    if sigma <= p1:
+        x, y = _track_blend(sigma, p1, p0)
+        return p2 + x, y
+    bx, by = _track_blend(p1, p1, p0)
+    phi_in = 0.5 * p1 / p0
+    # the circle's centre, from the entry blend's end
+    cx = p2 + bx - p0 * math.sin(phi_in)
+    cy = by + p0 * math.cos(phi_in)
+    if sigma <= p1 + arc:
+        phi = phi_in + (sigma - p1) / p0
+        return cx + p0 * math.sin(phi), cy - p0 * math.cos(phi)
+    # the exit blend starts where the circle ends (phi = 2 pi - phi_in)
+    x3 = cx - p0 * math.sin(phi_in)
+    y3 = cy - p0 * math.cos(phi_in)
+    tau = min(sigma - p1 - arc, p1)
+    ex, ey = _track_blend(p1 - tau, p1, p0)
+    x4 = x3 + (bx - ex)
+    y4 = y3 - (by - ey)
+    return x4 + max(sigma - 2.0 * p1 - arc, 0.0), y4
+
+
+# ---------------------------------------------------------------------------
+# parametric cubic spline through points: p = t, the chord-length parameter
+# (t_0 = 0, t_{k+1} = t_k + |P_{k+1} - P_k|), so |r'(t)| is near 1 but not 1:
+# dp/ds = 1 / |r'(t)|, the kernel's u * dp_ds.  ``shared`` holds
+# [n, bisection steps, t_0..t_{n-1}, then per piece the power-form
+# coefficients (c0 dt^3 + c1 dt^2 + c2 dt + c3) of X, then of Y]
+# (rampwork.curve_families.spline_shared builds it with scipy's CubicSpline).
+
+
+@jit
+def _spline_piece(p, shared):
+    n = int(shared[0])
+    i = _spline_interval(p, shared)
+    return n, 2 + n + 4 * i, 2 + n + 4 * (n - 1) + 4 * i, p - shared[2 + i]
+
+
+@jit
+def spline_curve_frame(p, p0, p1, p2, p3, shared):
+    n, ix, iy, dt = _spline_piece(p, shared)
+    dx = (3.0 * shared[ix] * dt + 2.0 * shared[ix + 1]) * dt + shared[ix + 2]
+    dy = (3.0 * shared[iy] * dt + 2.0 * shared[iy + 1]) * dt + shared[iy + 2]
+    ddx = 6.0 * shared[ix] * dt + 2.0 * shared[ix + 1]
+    ddy = 6.0 * shared[iy] * dt + 2.0 * shared[iy + 1]
+    speed = math.sqrt(dx * dx + dy * dy)
+    inverse = 1.0 / speed
+    return dy * inverse, dx * inverse, (dx * ddy - dy * ddx) * (inverse * inverse * inverse), inverse
+
+
+@jit
+def spline_curve_point(p, p0, p1, p2, p3, shared):
+    n, ix, iy, dt = _spline_piece(p, shared)
+    x = ((shared[ix] * dt + shared[ix + 1]) * dt + shared[ix + 2]) * dt + shared[ix + 3]
+    y = ((shared[iy] * dt + shared[iy + 1]) * dt + shared[iy + 2]) * dt + shared[iy + 3]
+    return x, y
 
 
 # ---------------------------------------------------------------------------

@@ -1,0 +1,304 @@
+"""Curve families: their named parameters, side, domain, joints and checks (docs/physics.md §5).
+
+:mod:`rampwork.curves` re-exports everything here (``FAMILIES``,
+``CurveFamily``); the jitted frame and point of each family are in
+:mod:`rampwork.core.curves`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+from .core import curves as core_curves
+from .errors import ConfigError
+from .ramps import ParameterSpec
+
+TWO_PI = 2.0 * math.pi
+#: the sides a block can be on: the one the left normal N points to, or the other
+SIDES = {"left": 1.0, "right": -1.0}
+CONTACTS = ("one_sided", "two_sided")
+
+
+def _p(name, units, long_name, constraint="finite", default=None):
+    return ParameterSpec(name, units, long_name, constraint, default)
+
+
+class CurveFamily:
+    """A curve shape: its parameters, jitted frame and point, the domain of
+    its position parameter and the checks of its values."""
+
+    def __init__(self, name, description, parameters, frame, point, domain, *, side="left",
+                 position="s", check=None, key=None, cacheable=True, joint=None):
+        self.name = name
+        self.description = description
+        self.parameters = tuple(parameters)
+        self.frame = frame
+        self.point = point
+        self._domain = domain  # (arrays by name) -> (p_lo, p_hi) arrays
+        self.side = side
+        self.position = position  # what p is: "s" (arc length) or "x"
+        self._check = check
+        self._joint = joint  # (arrays by name) -> the joint's p (NaN: none), or None
+        self.key = key or name
+        self.cacheable = cacheable
+        self._evaluator = None
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    def arrays(self, values: Mapping) -> dict[str, np.ndarray]:
+        """The parameters as float arrays, each checked (names the parameter,
+        the value and what is allowed)."""
+        unknown = [k for k in values if k not in self.parameter_names]
+        if unknown:
+            raise ConfigError(f"curve.{unknown[0]}", f"unknown parameter for curve family "
+                              f"{self.name!r}; allowed: {', '.join(self.parameter_names) or '(none)'}")
+        arrays = {}
+        for spec in self.parameters:
+            where = f"curve.{spec.name}"
+            if spec.name in values:
+                array = np.atleast_1d(np.asarray(values[spec.name]))
+                if array.dtype.kind not in "iuf":
+                    raise ConfigError(where, f"expected numbers, got {values[spec.name]!r}")
+                array = array.astype(np.float64)
+            elif spec.default is not None:
+                array = np.array([spec.default])
+            else:
+                raise ConfigError(where, f"required by curve family {self.name!r} "
+                                  f"({spec.long_name}, {spec.units})")
+            bad = ~np.isfinite(array) | ((array <= 0) if spec.constraint == "positive" else False)
+            if bad.any():
+                allowed = "a number > 0" if spec.constraint == "positive" else "a finite number"
+                raise ConfigError(where, f"must be {allowed}, got {float(array[bad][0])!r}")
+            arrays[spec.name] = array
+        if self._check is not None:
+            self._check(arrays)
+        return arrays
+
+    def joint(self, arrays) -> np.ndarray | None:
+        """Where the curvature jumps (steps end there), NaN where it does not;
+        None for a family without joints."""
+        return None if self._joint is None else np.asarray(self._joint(arrays), dtype=np.float64)
+
+    def domain(self, arrays) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self._domain(arrays)
+        return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+
+
+def _check_loop(a):
+    entry, exit_ = a["entry_angle"], a["exit_angle"]
+    entry, exit_ = np.broadcast_arrays(entry, exit_)
+    bad = ~(exit_ > entry)
+    if bad.any():
+        raise ConfigError("curve.exit_angle", f"must be > entry_angle, got exit_angle "
+                          f"{float(exit_[bad][0])!r} and entry_angle {float(entry[bad][0])!r}")
+    bad = exit_ - entry > TWO_PI * (1 + 1e-15)
+    if bad.any():
+        raise ConfigError("curve.exit_angle", "the arc may turn at most once (exit_angle - "
+                          f"entry_angle <= 2 pi, a longer arc crosses itself), got "
+                          f"{float(exit_[bad][0] - entry[bad][0])!r} rad")
+
+
+def _check_quarter_pipe(a):
+    bad = a["flat_length"] < 0
+    if bad.any():
+        raise ConfigError("curve.flat_length", f"must be >= 0, got {float(a['flat_length'][bad][0])!r}")
+
+
+def _check_brachistochrone(a):
+    t_end = a["end_angle"]
+    bad = ~((t_end > 0) & (t_end <= TWO_PI))
+    if bad.any():
+        raise ConfigError("curve.end_angle", "the rolling circle's angle at the end must be in "
+                          f"(0, 2 pi] (pi: the bottom; 2 pi: the next cusp), got {float(t_end[bad][0])!r}")
+
+
+def _check_clothoid(a):
+    length, parameter = np.broadcast_arrays(a["length"], a["clothoid_parameter"])
+    turning = np.abs(a["curvature_start"]) * length + 0.5 * length ** 2 / parameter ** 2
+    bad = turning > 2 * TWO_PI
+    if bad.any():
+        raise ConfigError("curve.length", "the clothoid may turn by at most 4 pi (|curvature_start| "
+                          f"length + length^2 / (2 A^2)), got {float(turning[bad][0])!r} rad")
+
+
+def _check_loop_track(a):
+    radius, blend = np.broadcast_arrays(a["radius"], a["blend_length"])
+    bad = blend >= TWO_PI * radius
+    if bad.any():
+        raise ConfigError("curve.blend_length", "the blends are too long for the loop: "
+                          "blend_length must be < 2 pi radius (the circle between them keeps "
+                          f"2 pi radius - blend_length), got {float(blend[bad][0])!r} for radius "
+                          f"{float(radius[bad][0])!r}")
+    bad = a["run_length"] < 0
+    if bad.any():
+        raise ConfigError("curve.run_length", f"must be >= 0, got {float(a['run_length'][bad][0])!r}")
+
+
+FAMILIES: dict[str, CurveFamily] = {
+    "loop": CurveFamily(
+        "loop", "circle of radius R, centre (0, R): s = R theta, theta the angle from the "
+        "bottom, counter-clockwise; the block inside (side left)",
+        (_p("radius", "m", "radius of the loop", "positive"),
+         _p("entry_angle", "rad", "angle from the bottom where the arc starts", default=0.0),
+         _p("exit_angle", "rad", "angle from the bottom where the arc ends", default=TWO_PI)),
+        core_curves.loop_frame, core_curves.loop_point,
+        lambda a: (a["radius"] * a["entry_angle"], a["radius"] * a["exit_angle"]),
+        check=_check_loop),
+    "quarter_pipe": CurveFamily(
+        "quarter_pipe", "a flat of length L from the origin, then a quarter circle of radius R "
+        "curving up to a vertical tangent (curvature jumps from 0 to 1/R at s = L)",
+        (_p("radius", "m", "radius of the quarter circle", "positive"),
+         _p("flat_length", "m", "length of the flat before it", default=0.0)),
+        core_curves.quarter_pipe_frame, core_curves.quarter_pipe_point,
+        lambda a: (np.zeros_like(a["radius"] + a["flat_length"]),
+                   a["flat_length"] + 0.5 * math.pi * a["radius"]),
+        check=_check_quarter_pipe,
+        joint=lambda a: a["flat_length"] + 0 * a["radius"]),  # at 0 too: a start there
+    "brachistochrone": CurveFamily(
+        "brachistochrone", "cycloid from its cusp at the origin: X = r (t - sin t), "
+        "Y = -r (1 - cos t), t in [0, end_angle]; s = 4 r (1 - cos(t/2)), vertical at the cusp",
+        (_p("radius", "m", "radius of the rolling circle", "positive"),
+         _p("end_angle", "rad", "rolling angle at the end (pi: the bottom)", default=math.pi)),
+        core_curves.cycloid_cusp_frame, core_curves.cycloid_cusp_point,
+        lambda a: (np.zeros_like(a["radius"] + a["end_angle"]),
+                   4.0 * a["radius"] * (1.0 - np.cos(0.5 * a["end_angle"]))),
+        check=_check_brachistochrone),
+    "clothoid": CurveFamily(
+        "clothoid", "Euler spiral from the origin: curvature kappa = curvature_start + s / A^2, "
+        "tangent angle phi = start_angle + curvature_start s + s^2 / (2 A^2), s in [0, length]",
+        (_p("clothoid_parameter", "m", "clothoid parameter A (kappa grows by 1/A^2 per metre)",
+            "positive"),
+         _p("length", "m", "arc length of the spiral", "positive"),
+         _p("curvature_start", "m-1", "curvature at the start", default=0.0),
+         _p("start_angle", "rad", "tangent angle at the start, from the horizontal", default=0.0)),
+        core_curves.clothoid_frame, core_curves.clothoid_point,
+        lambda a: (np.zeros_like(a["length"] + a["clothoid_parameter"]),
+                   a["length"] + 0 * a["clothoid_parameter"]),
+        check=_check_clothoid),
+    "loop_track": CurveFamily(
+        "loop_track", "loop-the-loop: a flat in-run of length run_length from the origin, a "
+        "clothoid blend of length blend_length (curvature 0 to 1/R), a circle of radius R "
+        "(arc 2 pi R - blend_length), the mirrored blend and a flat out-run of length "
+        "run_length; curvature continuous, the block inside (side left); the blends cross "
+        "at the loop's foot (a track crossing itself, allowed here)",
+        (_p("radius", "m", "radius of the loop's circle", "positive"),
+         _p("blend_length", "m", "arc length of each clothoid blend", "positive"),
+         _p("run_length", "m", "length of the flat in-run and of the out-run", default=1.0)),
+        core_curves.loop_track_frame, core_curves.loop_track_point,
+        lambda a: (np.zeros_like(a["radius"] + a["blend_length"] + a["run_length"]),
+                   2.0 * a["run_length"] + a["blend_length"] + TWO_PI * a["radius"]),
+        check=_check_loop_track),
+}
+
+
+# ---------------------------------------------------------------------------
+# the parametric spline through points: its data (points, end conditions)
+# is shared by all trajectories; it has no swept parameter.
+
+SPLINE_ENDS = ("natural", "clamped")
+#: samples per piece for the regularity and crossing checks
+SPLINE_SAMPLES = 32
+#: the least |r'| allowed: the chord-length parameter's |r'| is near 1, and
+#: below this the spline is a hairpin, its curvature ~ 1 / |r'|^2 (a cusp)
+SPLINE_MIN_SPEED = 1e-3
+
+SPLINE_FAMILY = CurveFamily(
+    "spline", "parametric C2 cubic spline through points (X_k, Y_k) in the chord-length "
+    "parameter t (t_{k+1} = t_k + |P_{k+1} - P_k|); dp/ds = 1 / |r'(t)|", (),
+    core_curves.spline_curve_frame, core_curves.spline_curve_point, None, position="t")
+
+
+def spline_shared(x_points, y_points, end="natural", end_tangents=None,
+                  allow_crossing=False) -> tuple[float, ...]:
+    """Check the points and build the spline's ``shared`` data (layout in
+    :mod:`rampwork.core.curves`).  ``end``: ``natural`` (r'' = 0 at both ends)
+    or ``clamped`` (``end_tangents``: the directions at the first and last
+    point, scaled to unit length, |r'| of the chord-length parameter).
+
+    Checks: at least 3 finite points, no two equal; the parametrisation
+    regular (|r'| >= SPLINE_MIN_SPEED at SPLINE_SAMPLES + 1 points of every piece and at
+    the minima of the quartic |r'|^2 on it); without ``allow_crossing``, no
+    two non-adjacent pieces cross (their polylines of SPLINE_SAMPLES chords)."""
+    from scipy.interpolate import CubicSpline
+
+    points = []
+    for where, values in (("curve.x_points", x_points), ("curve.y_points", y_points)):
+        array = np.asarray(values, dtype=np.float64).ravel()
+        if not np.isfinite(array).all():
+            raise ConfigError(where, "must be finite numbers")
+        points.append(array)
+    x, y = points
+    if x.size < 3 or y.size != x.size:
+        raise ConfigError("curve.x_points", f"needs at least 3 points and as many y_points, got "
+                          f"{x.size} and {y.size}")
+    pairs = np.stack([x, y], axis=1)
+    _, first = np.unique(pairs, axis=0, return_index=True)
+    if first.size != x.size:
+        dup = sorted(set(range(x.size)) - set(first.tolist()))[0]
+        raise ConfigError("curve.x_points", f"the points must be distinct: point {dup} "
+                          f"({x[dup]!r}, {y[dup]!r}) repeats an earlier one")
+    t = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+    if end not in SPLINE_ENDS:
+        raise ConfigError("curve.end", f"must be one of {', '.join(SPLINE_ENDS)}, got {end!r}")
+    if end == "clamped":
+        tangents = np.asarray(end_tangents, dtype=np.float64) if end_tangents is not None else None
+        if tangents is None or tangents.shape != (2, 2) or not np.isfinite(tangents).all() or \
+                (np.hypot(*tangents.T) == 0).any():
+            raise ConfigError("curve.end_tangents", "clamped ends need two nonzero tangent "
+                              f"directions ((dX0, dY0), (dX1, dY1)), got {end_tangents!r}")
+        tangents = tangents / np.hypot(*tangents.T)[:, None]
+        bc = ((1, tangents[0]), (1, tangents[1]))
+    else:
+        bc = "natural"
+    spline = CubicSpline(t, pairs, bc_type=bc)
+    coefficients = spline.c  # (4, pieces, 2): power form in t - t_k
+    _check_spline_regular(coefficients, np.diff(t))
+    if not allow_crossing:
+        _check_spline_crossing(spline, t)
+    steps = max(1, int(math.ceil(math.log2(x.size - 1))))
+    while (1 << steps) < x.size - 1:
+        steps += 1
+    return tuple(float(v) for v in np.concatenate(
+        [[x.size, steps], t, coefficients[:, :, 0].T.ravel(), coefficients[:, :, 1].T.ravel()]))
+
+
+def _check_spline_regular(c, widths):
+    for k, width in enumerate(widths):
+        dx = np.poly1d([3 * c[0, k, 0], 2 * c[1, k, 0], c[2, k, 0]])
+        dy = np.poly1d([3 * c[0, k, 1], 2 * c[1, k, 1], c[2, k, 1]])
+        speed2 = dx * dx + dy * dy
+        stationary = [r.real for r in speed2.deriv().roots if abs(r.imag) < 1e-12 and 0 <= r.real <= width]
+        where = np.concatenate([np.linspace(0.0, width, SPLINE_SAMPLES + 1), stationary])
+        if not (speed2(where) >= SPLINE_MIN_SPEED ** 2).all():
+            raise ConfigError("curve.x_points", f"the spline is not regular (|r'| < {SPLINE_MIN_SPEED}: a hairpin) on the piece "
+                              f"between points {k} and {k + 1}: space the points more evenly")
+
+
+def _segments_cross(a0, a1, b0, b1):
+    """Which chords a0-a1 cross which b0-b1 (proper crossings; arrays of points)."""
+    def orient(p, q, r):
+        return np.sign((q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1])
+                       - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0]))
+    a0, a1 = a0[:, None], a1[:, None]
+    b0, b1 = b0[None], b1[None]
+    return ((orient(a0, a1, b0) * orient(a0, a1, b1) < 0)
+            & (orient(b0, b1, a0) * orient(b0, b1, a1) < 0))
+
+
+def _check_spline_crossing(spline, t):
+    pieces = t.size - 1
+    samples = np.concatenate([np.linspace(t[k], t[k + 1], SPLINE_SAMPLES, endpoint=False)
+                              for k in range(pieces)] + [t[-1:]])
+    poly = spline(samples)
+    piece = np.repeat(np.arange(pieces), SPLINE_SAMPLES)
+    cross = _segments_cross(poly[:-1], poly[1:], poly[:-1], poly[1:])
+    cross &= np.abs(piece[:, None] - piece[None, :]) > 1  # adjacent pieces share an end
+    if cross.any():
+        i, j = np.argwhere(cross)[0]
+        raise ConfigError("curve.x_points", f"the spline crosses itself (pieces {piece[i]} and "
+                          f"{piece[j]}); pass allow_crossing=True where a crossing is meant")
