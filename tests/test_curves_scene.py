@@ -49,6 +49,24 @@ def test_curve_examples_parse_and_round_trip(name):
     assert dump_scene(*parse(text)) == text
 
 
+def test_loop_track_scene_runs_and_reads_back():
+    text = LOOP.replace('family = "loop"\nradius = 1.0', 'family = "loop_track"\nradius = 1.0\nblend_length = 0.5')
+    scene, sweep = parse(text + "[sweep.axes]\nu0 = [6.0, 8.0]\n")
+    dataset = rw.simulate(scene, sweep)
+    codes = {name: code for code, name, _ in rw.STATUS_TABLE}
+    # without friction the loop is cleared iff u0^2 >= 5 g R (the blends change that by ~1e-3)
+    assert list(dataset["status"].values) == [codes["lifted_off"], codes["exited"]]
+    again, sweep_again = scene_from_dataset(dataset)
+    assert again == scene and sweep_again == sweep
+
+
+def test_a_spline_through_points_is_refused_as_a_scene():
+    t = np.linspace(0.0, 1.5 * math.pi, 13)
+    spline = Curve.through_points(np.sin(t), 1.0 - np.cos(t))
+    with pytest.raises(ConfigError, match="curve: a spline through points"):
+        CurveScene(curve=spline, s0=0.0, u0=8.0)
+
+
 def test_curve_examples_are_listed(capsys):
     assert main(["example"]) == 0
     out = capsys.readouterr().out

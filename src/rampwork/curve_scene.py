@@ -64,6 +64,11 @@ class CurveScene:
         if self.curve.ramp is not None:
             raise ConfigError("curve", "a ramp y = f(x) runs as a rampwork.Scene (its own kernel); "
                               "a curve scene takes a curve family")
+        if self.curve.data is not None:
+            # its points are not in the scene text a dataset stores: it would not read back
+            raise ConfigError("curve", "a spline through points (Curve.through_points) runs with "
+                              "rampwork.curves.simulate_curve; curve scenes and scene files do not "
+                              "carry its points yet")
         for name, kind in (("friction", Friction), ("integrator", Integrator), ("drag", Drag)):
             if not isinstance(getattr(self, name), kind):
                 raise ConfigError(name, f"expected a rampwork.{kind.__name__}, got {getattr(self, name)!r}")
