@@ -95,10 +95,11 @@ class Integrator:
     stepping; False steps with ``method`` anyway, e.g. to measure its error.
 
     ``project_energy`` (adaptive pairs, default True): after each accepted
-    step, move x and v onto the energy balance E(x, v) + W_friction + W_drag
-    = E(x0, v0) (docs/physics.md); energy_balance_error then reports the
-    corrections' sum.  False integrates without it (fixed-step methods never
-    project).
+    step, move the state (x, v and, with friction, W_friction; each by the
+    share its tolerance allows) onto the energy balance E(x, v) + W_friction
+    + W_drag = E(x0, v0) (docs/physics.md §1.6); energy_balance_error then
+    reports the corrections' sum.  False integrates without it (fixed-step
+    methods never project, nor does the curve kernel).
     """
 
     method: str = "rk4"
