@@ -64,11 +64,6 @@ class CurveScene:
         if self.curve.ramp is not None:
             raise ConfigError("curve", "a ramp y = f(x) runs as a rampwork.Scene (its own kernel); "
                               "a curve scene takes a curve family")
-        if self.curve.data is not None:
-            # its points are not in the scene text a dataset stores: it would not read back
-            raise ConfigError("curve", "a spline through points (Curve.through_points) runs with "
-                              "rampwork.curves.simulate_curve; curve scenes and scene files do not "
-                              "carry its points yet")
         for name, kind in (("friction", Friction), ("integrator", Integrator), ("drag", Drag)):
             if not isinstance(getattr(self, name), kind):
                 raise ConfigError(name, f"expected a rampwork.{kind.__name__}, got {getattr(self, name)!r}")
@@ -255,6 +250,8 @@ CURVE_TOP_KEYS = ("title", "s0", "u0", "m", "g", "t_max", "contact", "curve", "f
                   "integrator", "sweep")
 #: keys of [curve] besides the family's parameters
 CURVE_KEYS = ("family", "side", "contact")
+#: keys of a spline's [curve] table (family = "spline": Curve.through_points)
+SPLINE_KEYS = ("x_points", "y_points", "end", "end_tangents", "allow_crossing")
 
 
 def curve_from_table(table: dict) -> tuple[Curve, str | None]:
@@ -262,11 +259,13 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
     from .scenefile import _check_keys, _number, _string
 
     if "family" not in table:
-        raise ConfigError("curve.family", f"required; allowed: {', '.join(CURVE_FAMILIES)}")
+        raise ConfigError("curve.family", f"required; allowed: {', '.join(CURVE_FAMILIES)}, spline")
     family = _string("curve.family", table["family"])
+    if family == "spline":
+        return _spline_from_table(table)
     if family not in CURVE_FAMILIES:
         raise ConfigError("curve.family", f"unknown curve family {family!r}; allowed: "
-                          f"{', '.join(CURVE_FAMILIES)}")
+                          f"{', '.join(CURVE_FAMILIES)}, spline")
     spec = CURVE_FAMILIES[family]
     _check_keys("curve", table, CURVE_KEYS + spec.parameter_names)
     params = {name: _number(f"curve.{name}", table[name], sweepable=True)
@@ -274,6 +273,34 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
     side = _string("curve.side", table["side"]) if "side" in table else None
     contact = _string("curve.contact", table["contact"]) if "contact" in table else None
     return Curve.create(family, side=side, **params), contact
+
+
+def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
+    """A ``[curve]`` table with ``family = "spline"``: the points and end
+    conditions of :meth:`Curve.through_points` (not sweepable)."""
+    from .scenefile import _check_keys, _numbers, _short, _string
+
+    _check_keys("curve", table, CURVE_KEYS + SPLINE_KEYS)
+    for key in ("x_points", "y_points"):
+        if key not in table:
+            raise ConfigError(f"curve.{key}", "required for family = \"spline\": the points' coordinates (m)")
+    args = {"x_points": _numbers("curve.x_points", table["x_points"]),
+            "y_points": _numbers("curve.y_points", table["y_points"])}
+    if "end" in table:
+        args["end"] = _string("curve.end", table["end"])
+    if "end_tangents" in table:
+        pairs = table["end_tangents"]
+        if not isinstance(pairs, list) or len(pairs) != 2:
+            raise ConfigError("curve.end_tangents", f"expected two [dX, dY] pairs, got {_short(pairs)}")
+        args["end_tangents"] = [_numbers(f"curve.end_tangents[{i}]", pair, 2) for i, pair in enumerate(pairs)]
+    if "allow_crossing" in table:
+        value = table["allow_crossing"]
+        if not isinstance(value, bool):
+            raise ConfigError("curve.allow_crossing", f"expected true or false, got {_short(value)}")
+        args["allow_crossing"] = value
+    side = _string("curve.side", table["side"]) if "side" in table else "left"
+    contact = _string("curve.contact", table["contact"]) if "contact" in table else None
+    return Curve.through_points(side=side, **args), contact
 
 
 def scene_from_data(data: dict) -> CurveScene:
@@ -308,7 +335,7 @@ def scene_from_data(data: dict) -> CurveScene:
 
 def dump_curve_lines(scene: CurveScene) -> list[str]:
     """The scene-file lines of everything but the integrator, record and sweep."""
-    from .scenefile import _toml_float, _toml_string
+    from .scenefile import _toml_array, _toml_float, _toml_string
 
     lines = [f"title = {_toml_string(scene.title)}"]
     if scene.s0 is not None:
@@ -320,5 +347,15 @@ def dump_curve_lines(scene: CurveScene) -> list[str]:
     lines += ["", "[curve]", f"family = {_toml_string(curve.family)}",
               f"side = {_toml_string(curve.side)}"]
     lines += [f"{name} = {_toml_float(f'curve.{name}', value)}" for name, value in curve.params]
+    if curve.points is not None:  # a spline through points
+        x_points, y_points, end, tangents, allow_crossing = curve.points
+        lines += [f"x_points = {_toml_array('curve.x_points', x_points)}",
+                  f"y_points = {_toml_array('curve.y_points', y_points)}",
+                  f"end = {_toml_string(end)}"]
+        if tangents is not None:
+            lines.append("end_tangents = [" + ", ".join(
+                _toml_array(f"curve.end_tangents[{i}]", pair) for i, pair in enumerate(tangents)) + "]")
+        if allow_crossing:
+            lines.append("allow_crossing = true")
     return lines
 

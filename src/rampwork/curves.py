@@ -63,6 +63,9 @@ class Curve:
     side: str = "left"
     ramp: Ramp | None = field(default=None, repr=False)
     data: tuple[float, ...] | None = field(default=None, repr=False)
+    #: a spline's definition as given (x_points, y_points, end, end_tangents,
+    #: allow_crossing): what a scene file writes, and reads back to the same data
+    points: tuple | None = field(default=None, repr=False)
 
     @classmethod
     def create(cls, family: str, side: str | None = None, **params) -> "Curve":
@@ -94,7 +97,12 @@ class Curve:
         by :func:`rampwork.curve_families.spline_shared`."""
         data = spline_shared(x_points, y_points, end, end_tangents, allow_crossing)
         side = validate.choice("curve.side", side, tuple(SIDES))
-        return cls("spline", (), side, None, data)
+        tangents = (None if end_tangents is None else
+                    tuple(tuple(float(v) for v in pair) for pair in np.asarray(end_tangents, dtype=np.float64)))
+        points = (tuple(np.asarray(x_points, dtype=np.float64).ravel().tolist()),
+                  tuple(np.asarray(y_points, dtype=np.float64).ravel().tolist()),
+                  end, tangents if end == "clamped" else None, bool(allow_crossing))
+        return cls("spline", (), side, None, data, points)
 
     @property
     def spec(self) -> CurveFamily:
