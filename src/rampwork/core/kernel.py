@@ -220,8 +220,9 @@ def _first_stages_lane(lanes, source, i, src_x, src_v, shared, h, uniform):
 def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared,
                     drag_b, drag_c, x_lo, x_hi, block_end_exit=False):
     """One fixed step from (x, v) and whether it is clean, i.e. no event
-    condition fired: ``(x1, v1, dw, dk, dwd, fp1, fpp1, ok)``.  The vector
-    loop and the scalar replay both call this, so they round alike.
+    condition fired: ``(x1, v1, dw, dwd, fp1, fpp1, ok)`` (not the stepper's
+    curvature integral: fixed steps form it per mode, _mode_curvature).  The
+    vector loop and the scalar replay both call this, so they round alike.
     ``dw < 0``: a step too long for the mode's signs (see _event_values).
     NaN makes every comparison false, so a non-finite step is not clean.
     ``qh`` = h q, ``dsign`` = D's sign bit, ``ahead`` the domain's end
@@ -231,13 +232,13 @@ def _step_and_check(x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2,
     d v > 0, so the last state is past the end ahead if any is)."""
     if not CARRY_SLOPE:
         fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-    x1, v1, dw, dk, dwd = step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared,
-                               drag_b, drag_c)
-    return checked_step(x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3,
+    x1, v1, dw, _, dwd = step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared,
+                              drag_b, drag_c)
+    return checked_step(x, x1, v1, dw, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3,
                         shared, x_lo, x_hi, block_end_exit)
 
 
-def _checked_step(x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3, shared,
+def _checked_step(x, x1, v1, dw, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3, shared,
                   x_lo, x_hi, block_end_exit):
     """:func:`_step_and_check` after the step from x to ``x1, v1`` (with
     f', f'' = ``fp, fpp`` at x): the tests, and f', f'' at x1."""
@@ -266,7 +267,7 @@ def _checked_step(x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, 
         fp1, fpp1 = ramp_slope_curvature(x1, p0, p1, p2, p3, shared)
     if CHECK_CONTACT:
         ok = ok & (sn * normal_term(v1, fpp1, g) > 0.0)
-    return x1, v1, dw, dk, dwd, fp1, fpp1, ok
+    return x1, v1, dw, dwd, fp1, fpp1, ok
 
 
 def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_wd, dst,
@@ -310,7 +311,7 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_wd, dst
         if SPLIT_STEP:  # UNROLL = 1: the step's first part is in CARRY (_first_stages_all)
             if not CARRY_SLOPE:
                 fp, fpp = ramp_slope_curvature(x, p0, p1, p2, p3, shared)
-            x1, v1, dw, dk, dwd = last_stages(
+            x1, v1, dw, _, dwd = last_stages(
                 x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
                 lanes[CARRY * LANES + i], lanes[(CARRY + 1) * LANES + i],
                 lanes[(CARRY + 2) * LANES + i], lanes[(CARRY + 3) * LANES + i],
@@ -318,11 +319,11 @@ def _fixed_step_lane(lanes, source, history, i, src_x, src_v, src_w, src_wd, dst
                 0.0,  # fpp2v2: only the unused curvature integral reads it
                 lanes[(CARRY + 6) * LANES + i] if DRAG else 0.0,
                 lanes[(CARRY + 7) * LANES + i] if DRAG else 0.0)
-            x, v, dw, dk, dwd, fp, fpp, ok = checked_step(
-                x, x1, v1, dw, dk, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3, shared,
+            x, v, dw, dwd, fp, fpp, ok = checked_step(
+                x, x1, v1, dw, dwd, fp, fpp, dsign, ahead, sn, g, p0, p1, p2, p3, shared,
                 x_lo, x_hi, True)
         else:
-            x, v, dw, dk, dwd, fp, fpp, ok = step_and_check(
+            x, v, dw, dwd, fp, fpp, ok = step_and_check(
                 x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b,
                 drag_c, x_lo, x_hi, True)
         # an add, not a select against the loaded value: that would become
@@ -401,7 +402,7 @@ def _step_from_bank(lanes, history, i, j, settings, shared):
         x, v, fp, fpp, lanes[Q * LANES + i], lanes[QH * LANES + i], lanes[D * LANES + i],
         lanes[DSIGN * LANES + i], lanes[AHEAD * LANES + i], lanes[SN * LANES + i],
         settings[SET_DT], g, p0, p1, p2, p3, shared, lanes[DRAG_B * LANES + i],
-        lanes[DRAG_C * LANES + i], settings[SET_XLO], settings[SET_XHI])[7]
+        lanes[DRAG_C * LANES + i], settings[SET_XLO], settings[SET_XHI])[6]
 
 
 def _restore_bank(lanes, history, i, j):
@@ -444,7 +445,7 @@ def _replay_lane(lanes, i, settings, shared, n_steps):
     for _ in range(n_steps):
         if not steps < limit:
             break
-        x1, v1, dw, dk, dwd, fp1, fpp1, ok = step_and_check(
+        x1, v1, dw, dwd, fp1, fpp1, ok = step_and_check(
             x, v, fp, fpp, q, qh, d, dsign, ahead, sn, h, g, p0, p1, p2, p3, shared, drag_b, drag_c,
             x_lo, x_hi)
         if not ok:
