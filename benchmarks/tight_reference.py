@@ -24,6 +24,7 @@ Needs heyoka (``pip install .[bench]``).  Run from the repository root::
 
     .venv/bin/python benchmarks/tight_reference.py           # 20,000 starts
     .venv/bin/python benchmarks/tight_reference.py --n 2000
+    .venv/bin/python benchmarks/tight_reference.py --methods dop853  # one pair
 
 Results (JSON and markdown) go to benchmarks/results/tight_reference.*.
 """
@@ -52,8 +53,15 @@ def parse_args(argv=None):
     p.add_argument("--seed", type=int, default=0, help="as accuracy_cost.py --peers (default 0)")
     p.add_argument("--repeat", type=int, default=3, help="timed runs per setting, interleaved "
                    "(default %(default)d)")
+    p.add_argument("--methods", default="dopri5,dop853",
+                   help="comma-separated pairs to run (default %(default)s)")
     p.add_argument("--out", type=pathlib.Path, default=C.RESULTS_DIR)
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    args.methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = sorted(set(args.methods) - {m for m, _, _ in SETTINGS})
+    if unknown or not args.methods:
+        p.error(f"--methods: dopri5 and/or dop853, got {args.methods!r}")
+    return args
 
 
 def starts(n, seed):
@@ -171,6 +179,8 @@ def main(argv=None):
             {"status": saved["ref_status"], "W_friction": saved["ref_W_friction"]}, 0)
     runs = []  # (method, rtol, atol, projection label, scene)
     for method, rtol, atol in SETTINGS:
+        if method not in args.methods:
+            continue
         for projection in (True, False):
             try:
                 integrator = rw.Integrator(method, rtol=rtol, atol=atol, closed_form=False,
