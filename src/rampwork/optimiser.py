@@ -223,7 +223,9 @@ class _Run:
         solver = self.solver
         state = {"version": CHECKPOINT_VERSION, "fingerprint": fingerprint, "generation": generation,
                  "population": solver.population, "energies": solver.population_energies,
-                 "nfev": solver._nfev, "evaluations": self.evaluations,
+                 "nfev": solver._nfev, "evaluations": self.evaluations, "scale": solver.scale,
+                 # scipy shuffles this index in place to draw the mutation's members
+                 "sample_order": solver._random_population_index,
                  "rng": json.dumps(solver.random_number_generator.bit_generator.state)}
         state.update({f"history_{name}": np.asarray(values) for name, values in self.history.items()})
         return state
@@ -235,6 +237,8 @@ class _Run:
         solver.feasible[...] = True
         solver.constraint_violation[...] = 0.0
         solver._nfev = int(state["nfev"])
+        solver.scale = state["scale"].item() if state["scale"].ndim == 0 else tuple(state["scale"])
+        solver._random_population_index[...] = state["sample_order"]
         solver.random_number_generator.bit_generator.state = json.loads(str(state["rng"]))
         self.evaluations = int(state["evaluations"])
         for name in self.history:
