@@ -297,3 +297,29 @@ def test_bad_shapes_are_refused_by_name(kwargs, where):
     with pytest.raises(ConfigError) as error:
         ChordModes(**dict(dict(start=(0.0, 1.0), end=(2.0, 0.0), k=2), **kwargs))
     assert error.value.where == where
+
+
+# -- the command line ----------------------------------------------------------------
+
+
+def test_cli_optimise_writes_the_history(tmp_path, capsys):
+    from rampwork.cli import example_text, main
+
+    scene = tmp_path / "least_work.toml"
+    scene.write_text(example_text("least_work"), encoding="utf-8")
+    out = tmp_path / "history.nc"
+    code = main(["optimise", str(scene), "-o", str(out), "--set", "optimise.maxiter=3",
+                 "--checkpoint", str(tmp_path / "run.npz")])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "generation 3/3" in captured.err and "best          W_friction" in captured.out
+    history = rw.open_dataset(out)
+    assert history.sizes["generation"] == 3 and history.attrs["objective"] == "W_friction"
+    assert history.attrs["rampwork_scene"].startswith("# rampwork scene file")
+    # bad input: one line naming the file and the key, before any work
+    for override, where in (("optimise.popsize=1", "optimise.popsize"), ("optimise.k=0", "shape.k"),
+                            ("optimise.colour=1", "[optimise]"), ("x0=0.5", "x0")):
+        assert main(["optimise", str(scene), "-o", str(tmp_path / "x.nc"), "--set", override]) == 2
+        err = capsys.readouterr().err
+        assert str(scene) in err and where in err, (override, err)
+    assert not (tmp_path / "x.nc").exists()
