@@ -33,7 +33,7 @@ SHAPES = ("chord_modes",)
 #: [optimise] keys: the shape's, then the optimiser's (OptimiseSettings)
 SHAPE_KEYS = ("shape", "start", "end", "k", "amplitude", "decay", "y_low", "y_high")
 SETTINGS_KEYS = ("objective", "sense", "constraints", "seed", "popsize", "maxiter", "tol", "atol",
-                 "mutation", "recombination", "init", "penalty", "polish", "polish_step")
+                 "mutation", "recombination", "init", "penalty", "polish", "polish_step", "x0")
 OPTIMISE_KEYS = SHAPE_KEYS + SETTINGS_KEYS
 EXIT_OK = 0
 
@@ -69,8 +69,9 @@ def _read(data: dict):
     settings = {key: table[key] for key in SETTINGS_KEYS if key in table}
     if isinstance(settings.get("constraints"), list):
         settings["constraints"] = tuple(settings["constraints"])
-    if isinstance(settings.get("mutation"), list):
-        settings["mutation"] = tuple(settings["mutation"])
+    for key in ("mutation", "x0"):
+        if isinstance(settings.get(key), list):
+            settings[key] = tuple(settings[key])
     settings = OptimiseSettings(**settings)
     # the ramp is the shape's: the chord stands in while the scene is read
     if "ramp" in data:

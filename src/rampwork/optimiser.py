@@ -59,7 +59,9 @@ class OptimiseSettings:
     (1 + its violation); it must exceed every feasible |objective|.
     ``polish``: refine the best candidate by L-BFGS-B with central
     differences of step ``polish_step`` (share of each bound's width), each
-    gradient ONE batched call of 2K + 1 candidates."""
+    gradient ONE batched call of 2K + 1 candidates.  ``x0``: a candidate
+    (K numbers, inside the shape's bounds) that replaces one member of the
+    first population, e.g. the optimum of a smaller K padded with zeros."""
 
     objective: str = "t_end"
     sense: str = "minimise"
@@ -75,6 +77,7 @@ class OptimiseSettings:
     penalty: float = 1e6
     polish: bool = False
     polish_step: float = 1e-5
+    x0: tuple[float, ...] | None = None
 
     def __post_init__(self):
         validate.choice("optimise.objective", self.objective, OBJECTIVES)
@@ -118,12 +121,19 @@ class OptimiseSettings:
         if not step < 0.5:
             raise ConfigError("optimise.polish_step", f"a share of the bounds' width, must be < 0.5, got {step!r}")
         object.__setattr__(self, "polish_step", step)
+        if self.x0 is not None:
+            if isinstance(self.x0, (str, bytes)) or not hasattr(self.x0, "__len__") or len(self.x0) == 0:
+                raise ConfigError("optimise.x0", f"expected the K parameters of a start candidate, got {self.x0!r}")
+            object.__setattr__(self, "x0", tuple(validate.real(f"optimise.x0[{i}]", v)
+                                                 for i, v in enumerate(self.x0)))
 
     def to_dict(self) -> dict:
         data = dataclasses.asdict(self)
         data["constraints"] = list(self.constraints)
         if isinstance(self.mutation, tuple):
             data["mutation"] = list(self.mutation)
+        if self.x0 is not None:
+            data["x0"] = list(self.x0)
         return data
 
 
@@ -206,7 +216,8 @@ class _Run:
             self._energies, list(shape.bounds), strategy="best1bin", maxiter=settings.maxiter,
             popsize=settings.popsize, tol=settings.tol, atol=settings.atol, mutation=settings.mutation,
             recombination=settings.recombination, rng=np.random.default_rng(settings.seed),
-            polish=False, init=settings.init, updating="deferred", vectorized=True)
+            polish=False, init=settings.init, updating="deferred", vectorized=True,
+            x0=None if settings.x0 is None else np.array(settings.x0))
 
     def evaluate(self, population: np.ndarray) -> xr.Dataset:
         dataset = self.shape.evaluate(population, self.scene, threads=self.threads)
@@ -320,6 +331,12 @@ def optimise(scene, shape, objective: str = "t_end", constraints=("arrive", "sta
         if not hasattr(shape, name):
             raise ConfigError("shape", f"expected a shape family (names, bounds, evaluate), got "
                               f"{type(shape).__name__} without {name!r}")
+    if settings.x0 is not None:
+        bounds = np.array(shape.bounds, dtype=np.float64)
+        x0 = np.array(settings.x0)
+        if x0.size != len(shape.names) or not ((bounds[:, 0] <= x0) & (x0 <= bounds[:, 1])).all():
+            raise ConfigError("optimise.x0", f"expected {len(shape.names)} numbers inside the shape's "
+                              f"bounds {[list(b) for b in shape.bounds]}, got {list(settings.x0)}")
     path = None if checkpoint is None else Path(checkpoint)
     if path is not None and not path.parent.is_dir():
         raise ConfigError("checkpoint", f"the folder {str(path.parent)!r} does not exist")
