@@ -455,8 +455,9 @@ class Reference:
                 rows.append([f"`{p.name}`", "number", default, _units(p.units), allowed,
                              p.long_name])
             for data in family.data_names:
-                rows.append([f"`{data}`", "array of numbers", "required", "`m`", "",
-                             "the spline's points (not sweepable)"])
+                units, text = family.data_docs[data]
+                rows.append([f"`{data}`", "array of numbers", "required", f"`{units}`", "",
+                             f"{text} (not sweepable)"])
             if rows:
                 out.append(_table(["key", "type", "default", "units", "allowed", "description"],
                                   rows))

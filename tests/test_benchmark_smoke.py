@@ -73,3 +73,12 @@ def test_curves_benchmark_pairs_the_kernels_on_the_same_ramp(tmp_path):
     assert set(best) == {"this tree", "baseline"}
     assert set(best["baseline"]) == {"rk4/circular_bowl/1"}
     assert best["baseline"]["rk4/circular_bowl/1"]["steps_per_s"] > 0
+
+
+def test_shape_evaluations_benchmark_reports_matched_accuracy(tmp_path):
+    done = _run("shape_evaluations.py", "--n", "16", "--scipy-n", "2", "--repeat", "1", out=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    saved = json.loads(next(tmp_path.glob("shape_evaluations-*.json")).read_text())
+    for result in saved["results"].values():
+        assert result["batch_per_s"] > 0 and result["scipy_per_s"] > 0
+        assert result["batch_t_end_error"] < 100 * result["rampwork_rtol"]

@@ -27,7 +27,7 @@ from rampwork.cli import main
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
 STUDIES = ("exam_question", "excess_work_map", "sign_changing_convexity", "phase_portraits",
            "liftoff_map", "sensitivity_excess_work", "loop_the_loop",
-           "descent_two_points")
+           "descent_two_points", "least_most_work")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -96,6 +96,18 @@ def test_a_pdf_only_with_the_pdf_option(tmp_path):
     for path in STUDIES_DIR.glob("*.py"):
         doc = study_module(path.stem).__doc__
         assert re.search(r"\.pdf[^.]* with (``)?--pdf", " ".join(doc.split())), path.name
+
+
+def test_least_most_work_bounds_and_reference(outputs):
+    ds = dataset(outputs, "least_most_work")
+    w_chord = 0.2 * 9.81 * 2.0
+    assert ds.attrs["W_chord"] == pytest.approx(w_chord, rel=1e-7)  # mu m g L
+    w = ds["W_friction"].values
+    assert np.allclose(w, ds["W_friction_reference"].values, rtol=1e-6, atol=1e-9)
+    least, most, free_least, free_most = w
+    assert least < w_chord < most <= 9.81 * (1 + 1e-9)  # an arriving block: at most m g H
+    assert 0 <= free_least and free_most <= 9.81 * 1.5 * (1 + 1e-9)  # at most m g (H - y_floor)
+    assert ds["arrived"].values[:2].all()
 
 
 def test_exam_question_closed_forms_and_ordering(outputs):

@@ -19,6 +19,8 @@ from .io import open_dataset, write_netcdf
 from .ramps import FAMILIES, Ramp
 from .scene import Drag, Friction, Integrator, Record, Scene, Sweep
 from .scenefile import scene_from_dataset
+from .optimiser import OptimiseSettings, optimise
+from .shapes import ChordModes
 from .runner import simulate
 from .sensitivity import sobol_indices
 from .streaming import run_to_file
@@ -26,12 +28,14 @@ from .zarrstore import write_zarr
 
 __all__ = [
     "__version__",
+    "ChordModes",
     "ClosedFormNotice",
     "ConfigError",
     "FAMILIES",
     "Drag",
     "Friction",
     "Integrator",
+    "OptimiseSettings",
     "Ramp",
     "Record",
     "RenamedParameterWarning",
@@ -39,6 +43,7 @@ __all__ = [
     "Scene",
     "Sweep",
     "open_dataset",
+    "optimise",
     "run_to_file",
     "scene_from_dataset",
     "simulate",

@@ -130,12 +130,16 @@ def _examples_dir():
 
 #: the folder of the curve scenes' examples (docs/physics.md §5), inside the examples
 CURVE_EXAMPLES = "curves"
+#: the folder of the optimisations' examples (`rampwork optimise`, docs/optimise.md)
+OPTIMISE_EXAMPLES = "optimise"
 
 
 def _example_files() -> dict:
-    """name -> file of every shipped example: the ramp scenes, then the curve scenes."""
+    """name -> file of every shipped example: the ramp scenes, the curve scenes,
+    then the optimisations."""
     files = {}
-    for folder in (_examples_dir(), _examples_dir().joinpath(CURVE_EXAMPLES)):
+    for folder in (_examples_dir(), _examples_dir().joinpath(CURVE_EXAMPLES),
+                   _examples_dir().joinpath(OPTIMISE_EXAMPLES)):
         for entry in folder.iterdir():
             if entry.name.endswith(".toml"):
                 files.setdefault(entry.name[:-5], entry)
@@ -505,8 +509,10 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                       "(default: print it)")
     info.set_defaults(handler=cmd_info)
 
+    from .optimise_cli import add_optimise_command
     from .plotting import add_plot_command
 
+    add_optimise_command(commands, fmt)
     add_plot_command(commands)
     return parser
 

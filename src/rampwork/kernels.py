@@ -49,7 +49,8 @@ KERNEL_ENV = "RAMPWORK_KERNEL"
 #: general kernels off ("0")
 WARMUP_ENV = "RAMPWORK_WARMUP"
 #: built-in families by their id in the general kernels
-GENERAL_FAMILIES = tuple(name for name, family in FAMILIES.items() if family.cacheable)
+GENERAL_FAMILIES = tuple(name for name, family in FAMILIES.items()
+                         if family.cacheable and family.general)
 #: the general kernels, one per kind (fixed steps; each adaptive pair)
 GENERAL_VARIANTS = (KernelVariant(ANY_FAMILY, ANY_FIXED_STEP, runtime=True),
                     *(KernelVariant(ANY_FAMILY, method, runtime=True)

@@ -127,6 +127,10 @@ class RampFamily:
     cheap_slope = False
     #: f'' is the same all along the ramp (no curvature integral needed)
     constant_curvature = False
+    #: one of the families the general kernels switch between (kernels.py)
+    general = True
+    #: units and description of each of ``data_names`` (reference docs)
+    data_docs: Mapping[str, tuple[str, str]] = {}
 
     def __init__(self, name: str, description: str, parameters: tuple[ParameterSpec, ...],
                  height, slope_curvature, *, is_straight: bool = False,
@@ -195,6 +199,19 @@ class RampFamily:
 
     def _check_family(self, arrays, lo, hi, shared) -> None:
         pass
+
+    def build_shared(self, data: Mapping, domain) -> tuple[float, ...]:
+        """``shared`` from the family's ``data_names`` values (validated);
+        ``domain`` as given (None where the family supplies its own)."""
+        raise ConfigError("ramp", f"ramp family {self.name!r} takes no data")
+
+    def data_domain(self, shared) -> tuple[float, float] | None:
+        """The domain a family with data has when none is given (None: required)."""
+        return None
+
+    def data_dict(self, shared) -> dict:
+        """``data_names`` -> plain values (lists) that rebuild ``shared``."""
+        return {}
 
     def pack(self, values: Mapping[str, np.ndarray], n: int | None = None):
         """p0..p3 float64 arrays for the kernel (unused slots zeros of the same
@@ -385,6 +402,20 @@ class _Sine(RampFamily):
 
 
 class _Spline(RampFamily):
+    data_docs = {"x_points": ("m", "the spline's points"),
+                 "y_points": ("m", "the spline's points")}
+
+    def build_shared(self, data, domain):
+        return spline_shared(data["x_points"], data["y_points"])
+
+    def data_domain(self, shared):
+        x_points, _, _ = spline_arrays(shared)
+        return float(x_points[0]), float(x_points[-1])
+
+    def data_dict(self, shared):
+        x_points, y_points, _ = spline_arrays(shared)
+        return {"x_points": x_points.tolist(), "y_points": y_points.tolist()}
+
     def _check_family(self, arrays, lo, hi, shared):
         if shared is None:
             return
@@ -408,6 +439,62 @@ class _Spline(RampFamily):
 
 def _spline_fpp(shared, x: float) -> float:
     return core.spline_slope_curvature(float(x), 0.0, 0.0, 0.0, 0.0, np.asarray(shared, dtype=np.float64))[1]
+
+
+#: the most modes a sine_modes row may have (the recurrence's rounding grows as K^2)
+MAX_MODES = 64
+
+
+class _SineModes(RampFamily):
+    """f = chord + sum of K sine modes; the coefficient table in ``shared``
+    (layout in :mod:`rampwork.core.ramps`), the trajectory's ``row`` picks one
+    row: a population of shapes runs as one sweep over ``row``."""
+
+    general = False  # its own kernel: the general ones stay at their families
+    data_docs = {"y_ends": ("m", "heights [y(x_min), y(x_max)] of the chord's ends"),
+                 "n_modes": ("1", "K, the number of sine modes per row: one integer in a list, [K]"),
+                 "coefficients": ("m", "the table of mode amplitudes c_1..c_K, row after row "
+                                       "(rows x K numbers)")}
+
+    def build_shared(self, data, domain):
+        if domain is None:
+            raise ConfigError("ramp.domain", f"required for ramp family {self.name!r}: "
+                              "[x_min, x_max] in m, the chord's ends")
+        lo, hi = _check_domain(domain)
+        ends = _real_array("ramp.y_ends", data["y_ends"])
+        if ends.size != 2:
+            raise ConfigError("ramp.y_ends", f"expected two heights [y(x_min), y(x_max)], got {ends.size}")
+        n_modes = np.asarray(data["n_modes"]).ravel()
+        if (n_modes.size != 1 or n_modes.dtype.kind not in "iuf" or not np.isfinite(n_modes[0])
+                or not float(n_modes[0]).is_integer() or not 1 <= n_modes[0] <= MAX_MODES):
+            raise ConfigError("ramp.n_modes", f"expected one integer in [1, {MAX_MODES}] (written "
+                              f"[K]), got {data['n_modes']!r}")
+        k = int(n_modes[0])
+        table = _real_array("ramp.coefficients", np.asarray(data["coefficients"]).ravel())
+        if table.size % k:
+            raise ConfigError("ramp.coefficients", f"expected rows of n_modes = {k} numbers, got "
+                              f"{table.size} numbers")
+        return tuple(float(v) for v in np.concatenate(
+            [[k, lo, hi, ends[0], ends[1], (ends[1] - ends[0]) / (hi - lo), math.pi / (hi - lo)], table]))
+
+    def data_dict(self, shared):
+        k = int(shared[0])
+        return {"y_ends": [shared[3], shared[4]], "n_modes": [float(k)],
+                "coefficients": list(shared[core.MODES_HEADER:])}
+
+    def _check_family(self, arrays, lo, hi, shared):
+        if shared is None:
+            return
+        rows = (len(shared) - core.MODES_HEADER) // int(shared[0])
+        if (lo, hi) != (shared[1], shared[2]):
+            raise ConfigError("ramp.domain", f"[{lo!r}, {hi!r}] must be the chord's ends "
+                              f"[{_fmt(shared[1])}, {_fmt(shared[2])}]")
+        row = arrays["row"]
+        bad = ~((row >= 0) & (row < rows) & (row == np.floor(row)))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError("ramp.row", f"must be an integer in [0, {rows - 1}] (a row of the "
+                              f"coefficient table), got {_fmt(row.ravel()[i])}{_at(row, i)}")
 
 
 class _Callable(RampFamily):
@@ -477,6 +564,12 @@ FAMILIES: dict[str, RampFamily] = {
               core.sine_height, core.sine_slope_curvature, renamed=(_SINE_SLOPE,)),
         _Spline("spline", "natural cubic spline through given points (x_points, y_points)", (),
                 core.spline_height, core.spline_slope_curvature, data_names=("x_points", "y_points")),
+        _SineModes("sine_modes", "a chord plus K sine modes y = y_lo + (y_hi - y_lo) (x - x_min) / "
+                   "(x_max - x_min) + sum_j c_j sin(j pi (x - x_min) / (x_max - x_min)), the c_j "
+                   "from one row of a table (rampwork.shapes.ChordModes)",
+                   (_p("row", "1", "row of the coefficient table", default=0.0),),
+                   core.sine_modes_height, core.sine_modes_slope_curvature,
+                   data_names=("y_ends", "n_modes", "coefficients")),
     )
 }
 
@@ -602,10 +695,9 @@ class Ramp:
             for name in spec.data_names:
                 if name not in params:
                     raise ConfigError(f"ramp.{name}", f"required by ramp family {family!r}")
-            shared = spline_shared(params["x_points"], params["y_points"])
+            shared = spec.build_shared({name: params[name] for name in spec.data_names}, domain)
             if domain is None:
-                x_points, _, _ = spline_arrays(shared)
-                domain = (float(x_points[0]), float(x_points[-1]))
+                domain = spec.data_domain(shared)
         if domain is None:
             raise ConfigError("ramp.domain", f"required for ramp family {family!r}: [x_min, x_max] in m")
         return cls(family, tuple(values), _check_domain(domain), shared)
@@ -714,9 +806,7 @@ class Ramp:
         data = {"family": self.family, "domain": [self.domain[0], self.domain[1]]}
         data.update(self.params)
         if self.spec.data_names:
-            x_points, y_points, _ = spline_arrays(self.shared)
-            data["x_points"] = x_points.tolist()
-            data["y_points"] = y_points.tolist()
+            data.update(self.spec.data_dict(self.shared))
         return data
 
     # -- callable checks ----------------------------------------------------

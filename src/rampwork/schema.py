@@ -364,6 +364,43 @@ _TRACE_LIST = (
 
 TRAJECTORY_RECORD: dict[str, VariableSpec] = {s.name: s for s in _TRACE_LIST}
 
+# ----------------------------------------------------------------------------
+# shape optimisation (rampwork.shapes, rampwork.optimise): per candidate of a
+# population and per generation of an optimisation
+# ----------------------------------------------------------------------------
+
+def _b(name, long_name, description):
+    return VariableSpec(name, "1", long_name, "bool", description)
+
+
+_OPTIMISE_LIST = (
+    _f("speed_end", "m s-1", "speed at the end of the trajectory",
+       "speed along the ramp when the trajectory ended (at B where it arrived)"),
+    _b("arrived", "reached B", "the trajectory exited the ramp at B"),
+    _b("stayed_on", "stayed in contact", "the block never left the ramp (no lift-off)"),
+    _b("inside", "inside the allowed region", "the candidate's ramp stays within the shape's y bounds"),
+    _b("admissible", "admissible candidate",
+       "a valid shape through A and B that kept the block in contact until it arrived at B"),
+    _f("shortfall", "1", "share of the way to B not covered",
+       "|x_B - x_end| / |x_B - x_A| where the block did not arrive, 0 where it did"),
+    _f("coefficients", "m", "shape parameters of the candidate", "the candidate's K shape parameters"),
+    _f("best_parameters", "m", "best shape parameters so far", "the best feasible candidate after each generation"),
+    _f("best_objective", "1", "best objective so far",
+       "the objective of best_parameters (its variable's units; see the attribute objective)"),
+    _f("objective_spread", "1", "spread of the population's objectives",
+       "standard deviation of the population's penalised objectives (scipy's convergence measure)"),
+    _i("n_feasible", "int32", "feasible candidates in the population",
+       "candidates that met every constraint, after the generation"),
+    _i("evaluations", "int64", "candidate evaluations so far", "trajectories run, cumulative"),
+    _f("objective", "1", "objective of the final candidate",
+       "the objective variable of each candidate of the final population (NaN where it has no meaning)"),
+    _f("penalised", "1", "penalised objective (minimised)",
+       "what the optimiser minimised: +-objective where feasible, penalty * (1 + violation) otherwise"),
+    _b("feasible", "met every constraint", "the candidate met every constraint of the optimisation"),
+)
+
+OPTIMISE_OUTPUTS: dict[str, VariableSpec] = {s.name: s for s in _OPTIMISE_LIST}
+
 
 # ----------------------------------------------------------------------------
 # helpers
@@ -548,7 +585,7 @@ def global_attrs(
 
 
 def _check_registry() -> None:  # import-time sanity check of the tables above
-    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD, CURVE_OUTPUTS, CURVE_AXES):
+    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD, CURVE_OUTPUTS, CURVE_AXES, OPTIMISE_OUTPUTS):
         for key, spec in table.items():
             assert key == spec.name and spec.units and spec.long_name, spec
             np.dtype(spec.dtype)

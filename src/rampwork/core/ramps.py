@@ -8,7 +8,8 @@ kernel inlines into its SIMD lane loop:
 
 ``p0..p3`` are the family's per-trajectory shape parameters in the order of
 :mod:`rampwork.ramps` (unused ones are 0.0); ``shared`` is a 1-D float64 array
-shared by all trajectories (only the spline reads it; never empty).
+shared by all trajectories (the spline's knots, sine_modes' coefficient
+table; never empty).
 
 Rules for code here: branch-light (simple ``a if c else b`` selects only), no
 data-dependent ``while`` loops, no exceptions, allocation or prints, no
@@ -507,6 +508,69 @@ def spline_slope_curvature(x, p0, p1, p2, p3, shared):
     b = (x - x0) / h
     slope = (y1 - y0) / h + ((1.0 - 3.0 * a * a) * m0 + (3.0 * b * b - 1.0) * m1) * h * (1.0 / 6.0)
     return slope, a * m0 + b * m1
+
+
+# ---------------------------------------------------------------------------
+# sine modes on a chord, data in ``shared`` (a table of coefficient rows; the
+# trajectory's p0 is its row): with theta = pi (x - x_lo) / (x_hi - x_lo),
+#   f(x) = y_lo + chord_slope (x - x_lo) + sum_{j=1..K} c_j sin(j theta)
+# through (x_lo, y_lo) and (x_hi, y_hi) for every row (every mode vanishes at
+# both ends).  sin(j theta), cos(j theta) by the Chebyshev recurrence from one
+# vmath.sincos (no libm call: the lane loops vectorise; the error grows as
+# ~j^2 ulp, a few hundred ulp of the coefficients' size at K = 32).
+#
+#     shared[0]   K (modes per row, >= 1), as a float
+#     shared[1:5] x_lo, x_hi, y_lo, y_hi
+#     shared[5]   chord_slope = (y_hi - y_lo) / (x_hi - x_lo)
+#     shared[6]   wavenumber = pi / (x_hi - x_lo)
+#     shared[7 + r K + (j - 1)]   c_j of row r
+
+MODES_HEADER = 7
+
+
+@jit
+def sine_modes_height(x, p0, p1, p2, p3, shared):
+    k = int(shared[0])
+    base = MODES_HEADER + int(p0) * k
+    d = x - shared[1]
+    s1, c1 = vmath.sincos(shared[6] * d)
+    two_c = 2.0 * c1
+    s_prev = 0.0
+    s = s1
+    total = 0.0
+    for j in range(k):
+        total = fma(shared[base + j], s, total)
+        s_next = fma(two_c, s, -s_prev)
+        s_prev = s
+        s = s_next
+    return fma(shared[5], d, shared[3]) + total
+
+
+@jit
+def sine_modes_slope_curvature(x, p0, p1, p2, p3, shared):
+    k = int(shared[0])
+    base = MODES_HEADER + int(p0) * k
+    w = shared[6]
+    s1, c1 = vmath.sincos(w * (x - shared[1]))
+    two_c = 2.0 * c1
+    s_prev = 0.0
+    s = s1
+    c_prev = 1.0
+    c = c1
+    slope = 0.0  # sum j c_j cos(j theta)
+    bend = 0.0  # sum j^2 c_j sin(j theta)
+    for j in range(k):
+        order = float(j + 1)
+        coefficient = shared[base + j] * order
+        slope = fma(coefficient, c, slope)
+        bend = fma(coefficient * order, s, bend)
+        s_next = fma(two_c, s, -s_prev)
+        c_next = fma(two_c, c, -c_prev)
+        s_prev = s
+        s = s_next
+        c_prev = c
+        c = c_next
+    return fma(w, slope, shared[5]), -(w * w) * bend
 
 
 # ---------------------------------------------------------------------------
