@@ -43,7 +43,7 @@ class CurveScene:
     """One set-up on a planar curve: the curve (family, parameters, side),
     start ``s0`` (m of arc length; may be left out when swept) and ``u0``
     (m/s along the curve, > 0 towards larger s), friction, drag, contact,
-    integrator (``euler``, ``semi_implicit_euler``, ``rk4`` or ``dopri5``),
+    integrator (``euler``, ``semi_implicit_euler``, ``rk4``, ``dopri5`` or ``dop853``),
     ``t_max``, ``m``, ``g``."""
 
     curve: Curve
