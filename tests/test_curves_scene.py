@@ -332,8 +332,8 @@ def test_cli_check_and_refusals(tmp_path, capsys):
     scene_path = _example_file(tmp_path, "quarter_pipe")
     assert main(["check", str(scene_path)]) == 0
     assert "quarter_pipe" in capsys.readouterr().out
-    assert main(["run", str(scene_path), "-o", str(tmp_path / "x.nc"), "--resume"]) == 2
-    assert "--resume" in capsys.readouterr().err
+    assert main(["run", str(scene_path), "-o", str(tmp_path / "x.nc"), "--threads", "2"]) == 2
+    assert "--threads" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text(cli.example_text("loop").replace("radius = 1.0 ", "radius = -1.0 "), encoding="utf-8")
     assert main(["check", str(bad)]) == 2
