@@ -19,7 +19,7 @@ FLOORS = {
     "scene": 2, "io": 2, "chunkstore": 2, "zarrstore": 2, "reference": 2, "plotting": 2,
     "scenefile": 3, "curve_scene": 3, "plan": 4, "kernels": 4, "runner": 4, "terminal": 4,
     "warmup": 5, "streaming": 5, "ishigami": 0, "sensitivity": 5, "cluster": 5,
-    "shapes": 5, "optimiser": 5,
+    "shapes": 5, "optimiser": 5, "sweepruns": 5, "curve_chunks": 5,
     "cli": 6, "curve_cli": 6, "optimise_cli": 6, "__main__": 7, "__init__": 7,
 }
 CORE_ALLOWED_THIRD_PARTY = {"numpy", "numba", "llvmlite"}

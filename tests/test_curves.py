@@ -24,6 +24,11 @@ METHODS = ("euler", "semi_implicit_euler", "rk4")
 STEP = {"euler": 1e-4, "semi_implicit_euler": 1e-4, "rk4": 1e-3}
 TOL = {"euler": 2e-3, "semi_implicit_euler": 2e-3, "rk4": 1e-9}
 ORDER = {"euler": 1, "semi_implicit_euler": 1, "rk4": 4}
+#: dop853 through the closed forms: its error within 10x its rtol
+STEP["dop853"] = 1e-3
+RTOL = {"dop853": 1e-10}
+TOL["dop853"] = 10 * RTOL["dop853"]
+CLOSED_FORM_METHODS = METHODS + ("dop853",)
 
 
 # ------------------------------------------------------------------------------
@@ -45,7 +50,7 @@ def test_loop_clears_the_top_iff_five_g_r(method, radius):
     assert out["p_end"][1] == 2 * math.pi * radius
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
 @pytest.mark.parametrize("ratio", [2.5, 3.0, 4.0, 4.9])
 def test_loop_lift_off_angle_by_energy(method, ratio):
     """Too slow (2 g R < u^2 < 5 g R): it leaves where nu = 0, cos theta =
@@ -53,7 +58,8 @@ def test_loop_lift_off_angle_by_energy(method, ratio):
     radius = 1.0
     loop = Curve.create("loop", radius=radius)
     u_bottom = math.sqrt(ratio * G * radius)
-    out = simulate_curve(loop, s0=0.0, u0=u_bottom, method=method, dt=STEP[method])
+    out = simulate_curve(loop, s0=0.0, u0=u_bottom, method=method, dt=STEP[method],
+                         rtol=RTOL.get(method, 1e-6))
     theta = math.acos((2 - ratio) / 3)
     assert out["status_name"][()] == "lifted_off"
     assert out["p_lift_off"] == pytest.approx(theta * radius, abs=TOL[method])
@@ -78,15 +84,18 @@ def test_loop_below_the_equator_swings_without_leaving(method):
     assert out["nu_min"] > 0
 
 
-@pytest.mark.parametrize("method", METHODS + ("dopri5",))
+@pytest.mark.parametrize("method", METHODS + ("dopri5", "dop853"))
 def test_loop_at_exactly_five_g_r_touches_zero_and_goes_over(method):
     """u_bottom^2 = 5 g R: nu = 3 g (1 + cos theta) touches 0 at the top
     without changing sign; the block goes over, for both contacts."""
     loop = Curve.create("loop", radius=1.0)
     for contact in ("one_sided", "two_sided"):
         out = simulate_curve(loop, s0=0.0, u0=math.sqrt(5 * G), method=method,
-                             dt=STEP.get(method, 1e-3), contact=contact)
+                             dt=STEP.get(method, 1e-3), contact=contact,
+                             rtol=RTOL.get(method, 1e-6))
         assert out["status_name"][()] == "exited" and out["n_reversals"] == 0
+        # nu_min is sampled at the steps' ends: dop853's steps at rtol 1e-6 (0.07 s
+        # near the top) pass it at nu ~ 0.2, hence its tighter rtol here
         assert 0.0 <= out["nu_min"] < 0.1
 
 
@@ -119,25 +128,49 @@ def test_dome_reversal_then_fall_orders(method):
     assert np.all(np.abs(orders - ORDER[method]) < 0.2), (errors, orders)
 
 
-@pytest.mark.parametrize("rtol", [1e-4, 1e-6, 1e-9])
-def test_dopri5_within_ten_times_rtol(rtol):
+#: a lift-off the curve kernel misses: nu < 0 only inside one step (it is
+#: checked at the steps' ends), on the loop at u^2 = 4.9 g R with dop853's
+#: steps at rtol 1e-4 (see test_a_dip_of_nu_inside_one_step_is_a_lift_off)
+MISSED_DIP = pytest.mark.xfail(strict=True, reason="a dip of nu below 0 inside one step")
+
+
+@pytest.mark.parametrize("method, rtol", [
+    (method, rtol) if (method, rtol) != ("dop853", 1e-4) else
+    pytest.param(method, rtol, marks=MISSED_DIP)
+    for method in ("dopri5", "dop853") for rtol in (1e-4, 1e-6, 1e-9)])
+def test_adaptive_pairs_within_ten_times_rtol(method, rtol):
     """The adaptive pair on the loop's lift-off, the dome's reversal and
     fall, the arc with friction and the cycloid from its cusp."""
     loop = Curve.create("loop", radius=1.0)
     for ratio in (2.5, 4.0, 4.9):
-        out = simulate_curve(loop, s0=0.0, u0=math.sqrt(ratio * G), method="dopri5", rtol=rtol)
+        out = simulate_curve(loop, s0=0.0, u0=math.sqrt(ratio * G), method=method, rtol=rtol)
         assert out["status_name"][()] == "lifted_off"
         assert abs(out["p_lift_off"] - math.acos((2 - ratio) / 3)) < 10 * rtol
-    out, p_lift = _dome_fall("dopri5", 1e-3)  # (the default rtol, 1e-6)
+    out, p_lift = _dome_fall(method, 1e-3)  # (the default rtol, 1e-6)
     assert out["n_reversals"] == 1 and abs(out["p_lift_off"] - p_lift) < 1e-5
     arc = Curve.create("loop", radius=0.8, entry_angle=-0.5, exit_angle=1.5)
-    out = simulate_curve(arc, s0=-0.4, u0=10.0, mu_k=0.4, method="dopri5", rtol=rtol)
+    out = simulate_curve(arc, s0=-0.4, u0=10.0, mu_k=0.4, method=method, rtol=rtol)
     expected = math.sqrt(_arc_speed_squared(1.5, -0.5, 100.0, 0.4, 0.8))
     assert out["u_end"] == pytest.approx(expected, rel=10 * rtol)
-    out = simulate_curve(Curve.create("brachistochrone", radius=1.0), s0=0.0, method="dopri5",
+    out = simulate_curve(Curve.create("brachistochrone", radius=1.0), s0=0.0, method=method,
                          rtol=rtol)
     assert out["t_end"] == pytest.approx(math.pi * math.sqrt(1.0 / G), abs=10 * rtol)
     assert out["steps"] < 10 / rtol ** 0.2  # it adapts: ~7 steps at 1e-4, ~50 at 1e-10
+
+
+@pytest.mark.xfail(strict=True, reason="nu is checked at the steps' ends only: a dip below 0 "
+                   "and back inside one step is not seen (the ramp kernel refuses such 'rough' "
+                   "steps, core/adaptive.py; the curve kernel does not yet)")
+@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+def test_a_dip_of_nu_inside_one_step_is_a_lift_off(method):
+    """u^2 = 4.99 g R at the bottom of the frictionless loop: nu = g (2.99 +
+    3 cos theta) < 0 for |theta - pi| < 0.082, so the block leaves before the
+    top (cos theta = -2.99/3), whatever the tolerance."""
+    loop = Curve.create("loop", radius=1.0)
+    for rtol in (1e-4, 1e-6):
+        out = simulate_curve(loop, s0=0.0, u0=math.sqrt(4.99 * G), method=method, rtol=rtol)
+        assert out["status_name"][()] == "lifted_off"
+        assert abs(out["p_lift_off"] - math.acos(-2.99 / 3)) < 10 * rtol
 
 
 # ------------------------------------------------------------------------------
@@ -154,13 +187,14 @@ def _arc_speed_squared(phi, phi0, w0, mu, radius):
     return math.exp(-a * (phi - phi0)) * (w0 - 2 * G * radius * (primitive(phi) - primitive(phi0)))
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
 @pytest.mark.parametrize("mu", [0.1, 0.4])
 def test_circular_arc_with_friction_exit_speed(method, mu):
     radius = 0.8
     arc = Curve.create("loop", radius=radius, entry_angle=-0.5, exit_angle=1.5)
     u0 = 10.0
-    out = simulate_curve(arc, s0=-0.5 * radius, u0=u0, mu_k=mu, method=method, dt=STEP[method])
+    out = simulate_curve(arc, s0=-0.5 * radius, u0=u0, mu_k=mu, method=method, dt=STEP[method],
+                         rtol=RTOL.get(method, 1e-6))
     assert out["status_name"][()] == "exited"
     expected = math.sqrt(_arc_speed_squared(1.5, -0.5, u0 * u0, mu, radius))
     assert out["u_end"] == pytest.approx(expected, rel=TOL[method])
@@ -170,7 +204,7 @@ def test_circular_arc_with_friction_exit_speed(method, mu):
     assert out["curvature_mean"] == pytest.approx(1 / radius, rel=10 * TOL[method])
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
 def test_circular_arc_with_friction_stops_where_u_vanishes(method):
     """A stop where static friction holds it (tan theta <= mu_s): stuck at
     the angle where the exact u^2 reaches 0."""
@@ -178,7 +212,8 @@ def test_circular_arc_with_friction_stops_where_u_vanishes(method):
 
     radius, mu, u0 = 1.0, 0.3, 2.0
     arc = Curve.create("loop", radius=radius, entry_angle=-1.0, exit_angle=1.0)
-    out = simulate_curve(arc, s0=0.0, u0=u0, mu_k=mu, mu_s=1.0, method=method, dt=STEP[method])
+    out = simulate_curve(arc, s0=0.0, u0=u0, mu_k=mu, mu_s=1.0, method=method, dt=STEP[method],
+                         rtol=RTOL.get(method, 1e-6))
     theta = brentq(lambda phi: _arc_speed_squared(phi, 0.0, u0 * u0, mu, radius), 0.0, 1.0,
                    xtol=1e-15)
     assert math.tan(theta) < 1.0
@@ -190,7 +225,7 @@ def test_circular_arc_with_friction_stops_where_u_vanishes(method):
 # ------------------------------------------------------------------------------
 # the brachistochrone cycloid from its cusp: at rest on a vertical tangent
 # ------------------------------------------------------------------------------
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
 @pytest.mark.parametrize("radius", [0.25, 1.0])
 def test_cycloid_from_the_cusp_reaches_the_bottom_in_pi_sqrt_r_over_g(method, radius):
     """At rest at the cusp nu = 0 exactly and kappa > 0: it slides off in
@@ -198,7 +233,7 @@ def test_cycloid_from_the_cusp_reaches_the_bottom_in_pi_sqrt_r_over_g(method, ra
     with the free-fall speed."""
     curve = Curve.create("brachistochrone", radius=radius)
     assert curve.evaluate(0.0)["cos_phi"][0] == 0.0
-    out = simulate_curve(curve, s0=0.0, method=method, dt=STEP[method])
+    out = simulate_curve(curve, s0=0.0, method=method, dt=STEP[method], rtol=RTOL.get(method, 1e-6))
     assert out["status_name"][()] == "exited"
     assert out["t_end"] == pytest.approx(math.pi * math.sqrt(radius / G), abs=10 * TOL[method])
     assert out["u_end"] == pytest.approx(math.sqrt(4 * G * radius), rel=TOL[method])
@@ -234,7 +269,7 @@ def test_quarter_pipe_top_is_vertical_and_the_block_comes_back(method):
     assert out["Y_end"][1] == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("method", METHODS + ("dopri5",))
+@pytest.mark.parametrize("method", METHODS + ("dopri5", "dop853"))
 def test_quarter_pipe_with_friction_steps_end_at_the_joint(method):
     """Over the flat u^2 falls by 2 mu g L, then the circular arc's exact
     solution up to the vertical end.  The curvature jump at the joint is an
@@ -247,7 +282,7 @@ def test_quarter_pipe_with_friction_steps_end_at_the_joint(method):
     out = simulate_curve(no_flat, s0=0.0, u0=u0, mu_k=mu, method=method, dt=1e-3, rtol=1e-9)
     assert out["u_end"] == pytest.approx(
         math.sqrt(_arc_speed_squared(0.5 * math.pi, 0.0, u0 * u0, mu, radius)),
-        rel=1e-8 if method in ("rk4", "dopri5") else 1e-2)
+        rel=1e-8 if method in ("rk4", "dopri5", "dop853") else 1e-2)
     w_joint = u0 * u0 - 2 * mu * G * flat
     expected = math.sqrt(_arc_speed_squared(0.5 * math.pi, 0.0, w_joint, mu, radius))
 
@@ -281,8 +316,8 @@ WRAPPED = [
 #: agree to the method's accuracy; the C2 spline's f''' jumps at its knots,
 #: which limits RK4 there
 WRAP_RUNS = {"euler": (1e-4, 2e-2), "semi_implicit_euler": (1e-4, 2e-2), "rk4": (1e-3, 1e-8),
-             "dopri5": (None, 1e-7)}
-#: dopri5's tolerance for the comparison (both kernels)
+             "dopri5": (None, 1e-7), "dop853": (None, 1e-7)}
+#: the adaptive pairs' tolerance for the comparison (both kernels)
 WRAP_RTOL = 1e-10
 
 
@@ -290,7 +325,7 @@ def _compare_wrapped(ramp, method, seed):
     dt, tol = WRAP_RUNS[method]
     if ramp.family == "spline" and method == "rk4":
         tol = 1e-5
-    adaptive = {"rtol": WRAP_RTOL} if method == "dopri5" else {}
+    adaptive = {"rtol": WRAP_RTOL} if method in ("dopri5", "dop853") else {}
     rng = np.random.default_rng(seed)
     n = 24
     lo, hi = ramp.domain
@@ -328,8 +363,9 @@ def test_wrapped_ramps_agree_with_the_ramp_kernel_first_order(ramp, method):
 
 
 @pytest.mark.parametrize("ramp", [WRAPPED[1], WRAPPED[3], WRAPPED[5]], ids=lambda r: r.family)
-def test_wrapped_ramps_agree_with_the_ramp_kernel_dopri5(ramp):
-    _compare_wrapped(ramp, "dopri5", seed=5)
+@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+def test_wrapped_ramps_agree_with_the_ramp_kernel_adaptive(ramp, method):
+    _compare_wrapped(ramp, method, seed=5)
 
 
 def test_wrapped_scenes_cover_stops_reversals_and_lift_offs():
@@ -439,7 +475,7 @@ def test_bad_runs_are_refused():
     with pytest.raises(ConfigError, match="on the curve"):
         simulate_curve(loop, s0=4.0)
     with pytest.raises(ConfigError) as error:
-        simulate_curve(loop, s0=0.0, method="dop853")
+        simulate_curve(loop, s0=0.0, method="leapfrog")
     assert error.value.where == "integrator.method"
     with pytest.raises(ConfigError):
         Curve.create("loop", side="up", radius=1.0)

@@ -66,6 +66,7 @@ def _reference(a, length, u0, mu):
 
 
 @pytest.mark.parametrize("method, dt, tol", [("rk4", 1e-3, 1e-9), ("dopri5", 1e-3, 1e-8),
+                                             ("dop853", 1e-3, 1e-8),
                                              ("euler", 1e-5, 1e-3)])
 @pytest.mark.parametrize("mu", [0.0, 0.3])
 def test_clothoid_run_against_an_independent_reference(method, dt, tol, mu):

@@ -128,7 +128,7 @@ def test_a_curve_scene_refuses_what_is_for_ramps(change, where, words):
     ("radius = 1.0", "radius = 1.0\nexit_angle = 7.0", "curve.exit_angle"),
     ("s0 = 0.0", "s0 = 7.0", "s0"),
     ("s0 = 0.0", "", "s0"),
-    ("mu_k = 0.0", "mu_k = 0.0\n[integrator]\nmethod = \"dop853\"", "integrator.method"),
+    ("mu_k = 0.0", "mu_k = 0.0\n[integrator]\nmethod = \"leapfrog\"", "integrator.method"),
     ("mu_k = 0.0", "mu_k = 0.0\n[sweep.axes]\nx0 = [0.1]", "sweep"),
 ])
 def test_curve_scene_errors_name_the_key(old, new, where):
@@ -239,7 +239,7 @@ def _arc_speed_squared(phi, phi0, w0, mu, radius):
     return math.exp(-a * (phi - phi0)) * (w0 - 2 * G * radius * (primitive(phi) - primitive(phi0)))
 
 
-@pytest.mark.parametrize("method, tol", [("rk4", 1e-9), ("dopri5", 1e-7)])
+@pytest.mark.parametrize("method, tol", [("rk4", 1e-9), ("dopri5", 1e-7), ("dop853", 1e-7)])
 def test_circular_arc_with_friction_path_baseline_and_curvature(method, tol):
     """An arc from -0.5 rad to 2.5 rad: X = R sin theta turns back at the
     vertical tangent theta = pi/2, so ∫|dX| = R (1 - sin(-0.5)) + R (1 - sin 2.5),
@@ -247,7 +247,7 @@ def test_circular_arc_with_friction_path_baseline_and_curvature(method, tol):
     radius, mu, u0, m = 0.8, 0.2, 10.0, 2.0
     scene = CurveScene(curve=Curve.create("loop", radius=radius, entry_angle=-0.5, exit_angle=2.5),
                        s0=-0.5 * radius, u0=u0, m=m, friction=rw.Friction(mu),
-                       integrator=rw.Integrator(method, 1e-3, **({"rtol": 1e-11} if method == "dopri5" else {})))
+                       integrator=rw.Integrator(method, 1e-3, **({"rtol": 1e-11} if method in ("dopri5", "dop853") else {})))
     ds = rw.simulate(scene)
     assert ds.status.item() == 2
     path_x = radius * (2.0 - math.sin(-0.5) - math.sin(2.5))
@@ -332,8 +332,8 @@ def test_cli_check_and_refusals(tmp_path, capsys):
     scene_path = _example_file(tmp_path, "quarter_pipe")
     assert main(["check", str(scene_path)]) == 0
     assert "quarter_pipe" in capsys.readouterr().out
-    assert main(["run", str(scene_path), "-o", str(tmp_path / "x.nc"), "--resume"]) == 2
-    assert "--resume" in capsys.readouterr().err
+    assert main(["run", str(scene_path), "-o", str(tmp_path / "x.nc"), "--threads", "2"]) == 2
+    assert "--threads" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text(cli.example_text("loop").replace("radius = 1.0 ", "radius = -1.0 "), encoding="utf-8")
     assert main(["check", str(bad)]) == 2

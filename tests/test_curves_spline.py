@@ -45,6 +45,7 @@ def test_chord_parameter_speed():
 
 
 @pytest.mark.parametrize("method, dt, tol", [("rk4", 1e-3, 1e-8), ("dopri5", 1e-3, 1e-6),
+                                             ("dop853", 1e-3, 1e-6),
                                              ("euler", 1e-5, 1e-2)])
 def test_energy_and_vertical_tangents_without_friction(method, dt, tol):
     """Inside the circle spline, fast enough to go round past both vertical

@@ -46,6 +46,7 @@ def test_geometry_is_continuous_across_the_pieces(radius, blend, run):
 
 
 @pytest.mark.parametrize("method, dt, tol", [("rk4", 1e-3, 1e-9), ("dopri5", 1e-3, 1e-6),
+                                             ("dop853", 1e-3, 1e-6),
                                              ("semi_implicit_euler", 1e-4, 1e-2)])
 def test_energy_is_conserved_without_friction(method, dt, tol):
     curve = Curve.create("loop_track", radius=1.0, blend_length=0.8, run_length=1.0)

@@ -283,23 +283,26 @@ def cmd_run(args) -> int:
     _check_output_is_not_an_input(args)
     _warn_shadowed(args.set, sweep)
     if _is_curve(scene):  # a planar curve: rampwork.curve_cli
-        from .curve_cli import run_curve
+        from .curve_cli import curve_heading
 
-        return run_curve(args, scene, sweep)
-    plan = _plan(args.scene, scene, sweep)
+        plan, heading = None, curve_heading(args, scene, sweep)
+    else:
+        plan = _plan(args.scene, scene, sweep)
+        heading = (f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}), "
+                   f"{_integration(plan)}")
     try:
         job = SweepToFile(scene, sweep, args.output, chunk_size=args.chunk_size, threads=args.threads,
                           resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler)
     except ConfigError as error:
         raise _run_error(args, error) from None
     if not args.quiet:
-        print(f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}), "
-              f"{_integration(plan)}", flush=True)
-        print(f"chunks       {job.layout.describe(plan.sweep.dims, args.chunk_size)}", flush=True)
+        print(heading, flush=True)
+        print(f"chunks       {job.layout.describe(job.plan.sweep.dims, args.chunk_size)}", flush=True)
         if job.resuming:
             print(f"resuming     {job.done_chunks} of {job.total_chunks} chunks done in {job.partial}",
                   flush=True)
-        _compile_notice(plan)
+        if plan is not None:
+            _compile_notice(plan)
     progress = Progress() if not args.quiet and (args.progress or sys.stderr.isatty()) else None
     try:
         output = job.run(progress)

@@ -9,18 +9,12 @@ import os
 import threading
 from dataclasses import dataclass
 
-import xarray as xr
-
 from . import runner
 from .errors import ConfigError
+from .sweepruns import PreparedSweep, SweepRun, sweep_run
 
 
-def traces(prepared: runner.Prepared) -> tuple[xr.Dataset, float]:
-    """The recorded trajectories alone, and the seconds they took."""
-    return runner.with_traces(prepared, xr.Dataset())
-
-
-def check_scheduler(scheduler, plan: runner.RunPlan):
+def check_scheduler(scheduler, plan: SweepRun):
     if scheduler is None:
         return None
     try:
@@ -30,9 +24,7 @@ def check_scheduler(scheduler, plan: runner.RunPlan):
     if not isinstance(scheduler, (str, Client)) or (isinstance(scheduler, str) and not scheduler.strip()):
         raise ConfigError("scheduler", f"expected 'local', a scheduler address such as "
                           f"tcp://host:8786, or a distributed.Client; got {scheduler!r}")
-    if plan.scene.ramp.family == "callable":
-        raise ConfigError("scheduler", "a ramp of user functions cannot be shipped to workers "
-                          "(they rebuild the scene from its text); run it with threads")
+    plan.check_shippable()
     return scheduler
 
 
@@ -66,18 +58,18 @@ class Shipped:
 
 #: on a worker: prepared runs by their digest, and one kernel call at a
 #: time (a worker's threads share the kernels' thread pool)
-_WORKER_RUNS: dict[str, runner.Prepared] = {}
+_WORKER_RUNS: dict[str, PreparedSweep] = {}
 _WORKER_LOCK = threading.Lock()
 
 
-def _worker_prepared(shipped: Shipped) -> tuple[runner.Prepared, float]:
+def _worker_prepared(shipped: Shipped) -> tuple[PreparedSweep, float]:
     from .scenefile import parse_scene
 
     key = shipped.digest
     if key in _WORKER_RUNS:
         return _WORKER_RUNS[key], 0.0
     scene, sweep = parse_scene(shipped.text, "scene shipped to a worker", shipped.coordinates)
-    prepared = runner.prepare(runner.plan_run(scene, sweep), "specialised")  # as the file says
+    prepared = sweep_run(scene, sweep).prepare("specialised")  # as the file says
     _WORKER_RUNS[key] = prepared
     return prepared, prepared.compile_seconds
 
@@ -96,7 +88,7 @@ def chunk_task(text: Shipped, index: int, start: int, stop: int):
         prepared, compile_seconds = _worker_prepared(text)
         threads = _worker_threads()
         with runner.using_threads(threads):
-            return index, runner.run_chunk(prepared, start, stop, threads), compile_seconds
+            return index, prepared.run_chunk(start, stop, threads), compile_seconds
 
 
 def chunk_store_task(text: Shipped, index: int, start: int, stop: int, writer, where, shape):
@@ -109,4 +101,4 @@ def chunk_store_task(text: Shipped, index: int, start: int, stop: int, writer, w
 def traces_task(text: Shipped):
     with _WORKER_LOCK:
         prepared, _ = _worker_prepared(text)
-        return traces(prepared)
+        return prepared.traces()

@@ -1,16 +1,15 @@
-"""The command line on curve scenes (docs/physics.md §5): ``run`` and ``check``
-of a scene file with a ``[curve]`` table.  A curve scene runs in memory in
-one piece (the curve kernel runs one trajectory at a time) and is written
-at once, atomically; chunking, resuming and Dask are for ramp scenes.
+"""The command line on curve scenes (docs/physics.md §5): what ``run`` and
+``check`` of a scene file with a ``[curve]`` table add to a ramp scene's.
+A curve scene runs chunk by chunk to its output as a ramp scene does
+(:mod:`rampwork.curve_chunks`): ``--chunk-size``, ``--resume`` and
+``--scheduler`` work alike; it runs on one thread.
 """
 
 from __future__ import annotations
 
-from . import io
-from .curve_scene import check, simulate_curve_scene
+from .curve_scene import check
 from .errors import ConfigError
-from .terminal import check_lines, format_counts, format_seconds, si, status_counts, sweep_shape
-from .zarrstore import write_zarr
+from .terminal import check_lines, sweep_shape
 
 EXIT_OK = 0
 
@@ -23,35 +22,16 @@ def _checked(path: str, scene, sweep):
         raise ConfigError(path, f"{error.where}: {error.problem}") from None
 
 
-def run_curve(args, scene, sweep) -> int:
-    """``run`` on a curve scene: in memory (the curve kernel runs one
-    trajectory at a time), then written at once, atomically."""
-    for given, name in ((args.resume, "--resume"), (args.chunk_size, "--chunk-size"),
-                        (args.scheduler, "--scheduler")):
-        if given:
-            raise ConfigError(name, "not for curve scenes yet: they run in one piece, in memory")
+def curve_heading(args, scene, sweep) -> str:
+    """Every check of ``run`` on a curve scene (errors name the file), and the
+    run's first line; the run itself is a ramp scene's (``cli.cmd_run``:
+    chunks, ``--resume``, ``--scheduler``), on one thread."""
     if args.threads not in (None, 1):
-        raise ConfigError("--threads", "curve scenes run on one thread for now")
+        raise ConfigError("--threads", "curve scenes run on one thread for now (the curve kernel "
+                          "runs one trajectory at a time; --scheduler runs chunks side by side)")
     sweep = _checked(args.scene, scene, sweep)
-    zarr = io.output_format(args.output) == "zarr"
-    io.check_writable(args.output, args.overwrite, store=zarr)
-    if not args.quiet:
-        print(f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}) on a "
-              f"{scene.curve.family} curve, {scene.integrator.describe()}", flush=True)
-    dataset = simulate_curve_scene(scene, sweep)
-    output = (write_zarr if zarr else io.write_netcdf)(dataset, args.output, overwrite=args.overwrite)
-    if args.quiet:
-        return EXIT_OK
-    attrs = dataset.attrs
-    run_s, steps = float(attrs["run_time_s"]), int(attrs["trajectory_steps"])
-    rate = (f"{si(steps / run_s)} trajectory-steps/s" if run_s > 0 else "trajectory-steps/s n/a")
-    print(f"trajectories  {sweep.size:,}")
-    print(f"kernel        {attrs['kernel_effects']}")
-    print(f"compile time  {format_seconds(float(attrs['compile_time_s']))}")
-    print(f"run time      {format_seconds(run_s)}  ({rate}, {steps:,} steps)")
-    print(f"status        {format_counts(status_counts(dataset['status'].values))}")
-    print(f"wrote         {output}")
-    return EXIT_OK
+    return (f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}) on a "
+            f"{scene.curve.family} curve, {scene.integrator.describe()}")
 
 
 def check_curve(args, scene, sweep) -> int:

@@ -43,7 +43,7 @@ class CurveScene:
     """One set-up on a planar curve: the curve (family, parameters, side),
     start ``s0`` (m of arc length; may be left out when swept) and ``u0``
     (m/s along the curve, > 0 towards larger s), friction, drag, contact,
-    integrator (``euler``, ``semi_implicit_euler``, ``rk4`` or ``dopri5``),
+    integrator (``euler``, ``semi_implicit_euler``, ``rk4``, ``dopri5`` or ``dop853``),
     ``t_max``, ``m``, ``g``."""
 
     curve: Curve
@@ -174,21 +174,28 @@ def simulate_curve_scene(scene: CurveScene, sweep: Sweep | None = None) -> xr.Da
     started = time.perf_counter()
     raw = run.run()
     run_seconds = time.perf_counter() - started
-    n = sweep.size
+    variables = curve_variables(scene, sweep, raw, mu_k, masses, gravity)
+    dims, shape, coords = _layout(scene, sweep, values)
+    data = {name: (dims, array.reshape(shape), schema.spec_attrs(schema.CURVE_OUTPUTS[name]))
+            for name, array in variables.items()}
+    dataset = xr.Dataset(data, coords=coords)
+    dataset.attrs.update(attributes(scene, sweep, compile_seconds, run_seconds,
+                                    int(variables["steps"].sum())))
+    return dataset
+
+
+def curve_variables(scene: CurveScene, sweep: Sweep, raw: dict, mu_k, masses,
+                    gravity) -> dict[str, np.ndarray]:
+    """The dataset's per-trajectory variables, flat, from a :class:`CurveRun`'s
+    outputs ``raw`` and the run's ``mu_k``, masses and gravity (the whole
+    sweep's, or a chunk's: rampwork.curve_chunks)."""
+    n = len(mu_k)
     raw = {_RENAMED.get(name, name): np.broadcast_to(raw[name], (n,)).ravel()
            for name in KERNEL_OUTPUTS + ("status",)}
     raw["W_path"] = mu_k * masses * gravity * raw["path_length_X"]
     raw["W_excess"] = raw["W_friction"] - raw["W_path"]
-    names = schema.curve_output_names(drag=_drag_on(scene, sweep))
-    dims, shape, coords = _layout(scene, sweep, values)
-    data = {}
-    for name in names:
-        spec = schema.CURVE_OUTPUTS[name]
-        data[name] = (dims, raw[name].astype(spec.np_dtype).reshape(shape), schema.spec_attrs(spec))
-    dataset = xr.Dataset(data, coords=coords)
-    dataset.attrs.update(attributes(scene, sweep, compile_seconds, run_seconds,
-                                    int(raw["steps"].sum())))
-    return dataset
+    return {name: raw[name].astype(schema.CURVE_OUTPUTS[name].np_dtype)
+            for name in schema.curve_output_names(drag=_drag_on(scene, sweep))}
 
 
 def _layout(scene: CurveScene, sweep: Sweep, values: dict):
@@ -207,14 +214,14 @@ def _layout(scene: CurveScene, sweep: Sweep, values: dict):
 
 
 def attributes(scene: CurveScene, sweep: Sweep, compile_seconds: float, run_seconds: float,
-               steps: int) -> dict:
+               steps: int, entry: str = "rampwork.simulate", threads: int = 1) -> dict:
     from .scenefile import dump_scene
 
     integrator = scene.integrator
     curve = scene.curve
     return schema.global_attrs(
         scene.title, dump_scene(scene, sweep, stored=True),
-        f"rampwork.simulate: {sweep.size} trajectories on a {curve.family} curve, "
+        f"{entry}: {sweep.size} trajectories on a {curve.family} curve, "
         f"{integrator.describe()}",
         {
             "curve_family": curve.family,
@@ -237,7 +244,7 @@ def attributes(scene: CurveScene, sweep: Sweep, compile_seconds: float, run_seco
             "trajectory_steps": steps,
             "compile_time_s": compile_seconds,
             "run_time_s": run_seconds,
-            "threads": 1,
+            "threads": threads,
         },
     )
 

@@ -170,7 +170,7 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     families; x for a wrapped ramp); ``u0``: the signed speed along the
     curve (> 0: towards larger s).  ``mu_s`` defaults to ``mu_k``.
     ``method``: ``euler``, ``semi_implicit_euler``, ``rk4`` (steps of
-    ``dt``) or ``dopri5`` (its first step ``dt``, then a local error of p, u
+    ``dt``), ``dopri5`` or ``dop853`` (its first step ``dt``, then a local error of p, u
     and the friction work below ``atol + rtol |value|``; ``atol`` defaults
     to ``rtol``).  Returns
     arrays of the broadcast shape: ``status`` (codes of

@@ -439,7 +439,7 @@ def scene_text(scene: Scene, sweep: Sweep, stored: bool = False) -> str:
     (see ``scenefile.dump_scene``): a few lines whatever the sweep's size."""
     from .scenefile import dump_scene
 
-    if scene.ramp.family != "callable":
+    if not isinstance(scene, Scene) or scene.ramp.family != "callable":  # (or a CurveScene)
         return dump_scene(scene, sweep, stored=stored)
     spec = scene.ramp.spec
     stand_in = scene.replace(ramp=Ramp.create("straight", slope=0.0, domain=scene.ramp.domain))

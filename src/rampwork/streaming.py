@@ -43,12 +43,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from . import cluster, io, runner, schema
+from . import cluster, io, runner
 from ._version import __version__
 from .chunkstore import (DIGEST_ATTR, DONE_ATTR, LAYOUT_ATTR, RUN_TIME_ATTR,  # noqa: F401
                          fit_done, open_chunk_store)
 from .errors import ConfigError, option
 from .scene import Scene, Sweep
+from .sweepruns import SweepRun, sweep_run
 
 __all__ = ["run_to_file", "SweepToFile", "ChunkLayout", "partial_path"]
 
@@ -133,9 +134,10 @@ class ChunkLayout:
         return start, start + (last - first) * inner, where, (last - first,) + self.shape[self.axis + 1:]
 
 
-def run_digest(plan: runner.RunPlan) -> str:
+def run_digest(plan: runner.RunPlan | SweepRun) -> str:
     """Names the results a run produces: the scene, its sweep and the version
-    that computes them. A partial file is resumed only with the same digest."""
+    that computes them. A partial file is resumed only with the same digest
+    (``plan``: anything with the run's ``scene`` and ``sweep``)."""
     text = runner.scene_text(plan.scene, plan.sweep, stored=True)
     if plan.sweep.design is not None:  # and the values its recipe gives with this numpy and scipy
         text += f"\ndesign values {plan.sweep.design.fingerprint()}"
@@ -149,12 +151,13 @@ def run_digest(plan: runner.RunPlan) -> str:
 
 class SweepToFile:
     """One sweep written to one file; every check is made on construction,
-    before any work, and :meth:`run` does the work. See :func:`run_to_file`."""
+    before any work, and :meth:`run` does the work. See :func:`run_to_file`.
+    The scene is a ramp's or a curve's (:mod:`rampwork.sweepruns`)."""
 
     def __init__(self, scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
                  chunk_size: int | None = None, threads: int | None = None, resume: bool = False,
                  overwrite: bool = False, scheduler=None, compression_level: int = 4):
-        self.plan = runner.plan_run(scene, sweep)
+        self.plan = sweep_run(scene, sweep)  # a SweepRun: every check of the scene and sweep
         self.compression_level = io.check_compression_level(compression_level)
         if chunk_size is not None and (isinstance(chunk_size, bool)
                                        or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
@@ -163,14 +166,14 @@ class SweepToFile:
         if self.scheduler is not None and threads is not None:
             raise ConfigError("threads", "not used with a scheduler: each worker runs a chunk on "
                               "its own threads")
-        self.threads = runner.thread_count(threads) if self.scheduler is None else None
+        self.threads = self.plan.thread_count(threads) if self.scheduler is None else None
         self.path = io.check_writable(path, overwrite, store=Path(path).suffix.lower() == io.ZARR_SUFFIX)
         self.overwrite = overwrite
         self.partial = partial_path(self.path)
         self.store = open_chunk_store(self.path, self.partial, self.compression_level)  # by the suffix
         self.digest = run_digest(self.plan)
-        self.layout = ChunkLayout.for_shape(runner.dataset_layout(self.plan).shape,
-                                            runner.CHUNK_SIZE if chunk_size is None else int(chunk_size))
+        self.layout = ChunkLayout.for_shape(self.plan.layout().shape,
+                                            self.plan.chunk_size if chunk_size is None else int(chunk_size))
         self.done = np.zeros(self.layout.count, dtype=bool)
         self.previous_run_seconds = 0.0
         self.resuming = False
@@ -252,9 +255,9 @@ class SweepToFile:
         self._finalise(self.previous_run_seconds + time.perf_counter() - started, info)
 
     def _create(self):
-        layout = runner.dataset_layout(self.plan)
+        layout = self.plan.layout()
         # zero-stride stand-ins: the variables' values come chunk by chunk
-        placeholders = {name: (layout.dims, np.broadcast_to(np.zeros((), schema.OUTPUTS[name].np_dtype),
+        placeholders = {name: (layout.dims, np.broadcast_to(np.zeros((), self.plan.output_dtype(name)),
                                                             layout.shape), attrs)
                         for name, attrs in layout.attrs.items()}
         # no index: a design's `case` stand-in would be materialised as one
@@ -264,7 +267,7 @@ class SweepToFile:
         # one chunk of the file per chunk of the run: concurrent writers never share one
         deferred = tuple(layout.attrs) + layout.drawn
         chunks = {name: self.layout.chunksizes for name in deferred} if layout.shape else {}
-        attrs = runner.attributes(self.plan, 0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
+        attrs = self.plan.attributes(0.0, 0.0, self.threads or 0, 0, entry="rampwork.run_to_file")
         attrs.update({DIGEST_ATTR: self.digest, LAYOUT_ATTR: np.array([self.layout.axis, self.layout.rows]),
                       RUN_TIME_ATTR: 0.0})
         self.store.create(skeleton, deferred, chunks, attrs, self.done)
@@ -272,12 +275,12 @@ class SweepToFile:
     def _finalise(self, run_seconds: float, info: dict) -> None:
         # chunk by chunk: memory stays bounded
         steps = self.store.steps(self.layout.piece(index)[2] for index in range(self.layout.count))
-        attrs = runner.attributes(self.plan, info["compile_time_s"], run_seconds, info["threads"], steps,
-                                  entry="rampwork.run_to_file",
-                                  kernel_source=info.get("kernel_source"),
-                                  kernel_tier=info.get("kernel_tier", "specialised"))
+        attrs = self.plan.attributes(info["compile_time_s"], run_seconds, info["threads"], steps,
+                                     entry="rampwork.run_to_file",
+                                     kernel_source=info.get("kernel_source"),
+                                     kernel_tier=info.get("kernel_tier"))
         traces = None
-        if self.plan.scene.record.enabled:
+        if self.plan.records:
             traces, attrs["trace_time_s"] = info["traces"]()
         if "scheduler" in info:
             attrs["scheduler"] = info["scheduler"]
@@ -286,16 +289,16 @@ class SweepToFile:
     # --------------------------------------------------------------------------
     def _threaded(self, pending, info: dict):
         """The pending chunks' results, in order, computed here; fills ``info``."""
-        prepared = runner.prepare(self.plan)
+        prepared = self.plan.prepare()
         info.update({"compile_time_s": prepared.compile_seconds, "threads": self.threads,
                      "kernel_source": prepared.kernel_source, "kernel_tier": prepared.tier,
-                     "traces": lambda: cluster.traces(prepared)})
+                     "traces": prepared.traces})
 
         def chunks():
             with runner.using_threads(self.threads):
                 for index in pending:
                     start, stop, _, _ = self.layout.piece(index)
-                    yield index, runner.run_chunk(prepared, start, stop, self.threads)
+                    yield index, prepared.run_chunk(start, stop, self.threads)
 
         return chunks()
 
@@ -404,8 +407,12 @@ def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
     Dask worker too; netCDF suffixes are ``.nc`` (the default format),
     ``.nc4``, ``.netcdf`` and ``.cdf``, and any other is refused.
 
+    ``scene``: a ramp scene or a curve scene
+    (:class:`~rampwork.curve_scene.CurveScene`, whose chunks run one
+    trajectory at a time on one thread, or on Dask workers).
     ``chunk_size``: trajectories per chunk at most (default
-    ``runner.CHUNK_SIZE``); a grid's chunk is a block of its arrays, whole
+    ``runner.CHUNK_SIZE``, ``curve_chunks.CURVE_CHUNK_SIZE`` for a curve
+    scene); a grid's chunk is a block of its arrays, whole
     along every dimension after the one it cuts, so it holds a multiple of
     those dimensions' size (``SweepToFile(...).layout.describe`` says how
     many); each finished chunk is on disk in ``.NAME.partial`` beside ``path`` until

@@ -35,14 +35,15 @@ import math
 import numpy as np
 
 from . import status as st
-from .control import ERROR_FLOOR, FACTOR_MAX, FACTOR_MIN, PI_DOPRI5, SAFETY
-from .curve_steppers import CURVE_STEPPERS, _stage, normal_along_n
+from .control import ERROR_FLOOR, FACTOR_MAX, FACTOR_MIN, SAFETY
+from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, normal_along_n
 from .jit import fma, specialise
 
 # bound per scene by build_curve_kernel (compile-time constants)
 curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = None
 contact_sign = x_travelled = None
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
+PI_ALPHA = PI_BETA = SHRINK = 0.0  # the pair's step-size control (CURVE_STEPPERS)
 JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
 # family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
@@ -234,7 +235,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
                 rejected += 1
                 factor = FACTOR_MIN
                 if err == err:
-                    factor = max(FACTOR_MIN, SAFETY * err ** -0.2)
+                    factor = max(FACTOR_MIN, SAFETY * err ** -SHRINK)
                 h_next = step_size * factor
                 rejected_before = True
                 if not (h_next > SMALLEST_STEP * max(t, 1.0)):
@@ -242,7 +243,7 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
                     break
                 continue
             if clean:  # an event step's size says nothing of the next one's
-                factor = SAFETY * max(err, 1e-30) ** -PI_DOPRI5[0] * error_previous ** PI_DOPRI5[1]
+                factor = SAFETY * max(err, 1e-30) ** -PI_ALPHA * error_previous ** PI_BETA
                 factor = min(max(factor, FACTOR_MIN), 1.0 if rejected_before else FACTOR_MAX)
                 h_next = step_size * factor
                 error_previous = max(err, ERROR_FLOOR)
@@ -353,8 +354,11 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
         (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
         (drag_quadratic, "_dragc"), (joints, "_joints")) if on)
     name = f"curve_{key}_{method}{flags}"
+    _, _, adaptive, control = CURVE_STEPPERS[method]
+    alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": CURVE_STEPPERS[method][2], "JOINTS": joints,
+                 "ADAPTIVE": adaptive, "PI_ALPHA": alpha, "PI_BETA": beta, "SHRINK": shrink,
+                 "JOINTS": joints,
                  "FRICTION": friction, "DRAG_LINEAR": drag_linear,
                  "DRAG_QUADRATIC": drag_quadratic, "DRAG": drag_linear or drag_quadratic}
     options = {} if cache else {"cache": False}
@@ -364,7 +368,10 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
         return specialise(template, f"{name}_{suffix}", dict(constants), **options)
 
     built_stage = build(_stage, "stage")
-    built_step = build(CURVE_STEPPERS[method][0], "step", stage=built_stage)
+    more = {"stage": built_stage}
+    if method == "dop853":  # its stages are a template of their own (they call `stage`)
+        more["stage_rates"] = build(_dop853_stages, "rates", stage=built_stage)
+    built_step = build(CURVE_STEPPERS[method][0], "step", **more)
     built_try = build(_try_step, "try", curve_step=built_step)
     built_rest = build(_rest_rule, "rest")
     built_sign = build(_contact_sign, "sign")

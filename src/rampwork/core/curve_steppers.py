@@ -17,11 +17,14 @@ from __future__ import annotations
 
 import math
 
+from .control import PI_DOP853, PI_DOPRI5
+from .dop853 import (A2, A3, A4, A5, A6, A7, A8, A9, A10, A11, A12, _dot1, _dot2, _dot3, _dot4,
+                     _dot5, _dot6, _dot7, _dot8, _dot9, _error3, _error5, _weigh8)
 from .jit import fma, jit
 from .steppers import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64,
                        A65, _error6, _weigh5)
 
-curve_frame = stage = None  # bound per scene
+curve_frame = stage = stage_rates = None  # bound per scene
 FRICTION = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False
 
@@ -138,12 +141,118 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
     return p7, u7, work, turn, displacement, drag, math.sqrt(squares / count)
 
 
-#: method name -> (step template, order, adaptive)
+def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c):
+    """DOP853's stages 1..12 (core/dop853.py's tableau): 12-tuples of
+    (dp/dt, du/dt, nu u, kappa u, drag power) over the stages.  The new state
+    uses stages 1 and 6..12 only, so the 13th (at the new state, which the
+    ramp kernel carries over to the next step) is not evaluated here."""
+    a1, n1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v1 = u * r1
+    p2 = fma(h, _dot1(A2, v1), p)
+    u2 = fma(h, _dot1(A2, a1), u)
+    a2, n2, k2, r2, pd2 = stage(p2, u2, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v2 = u2 * r2
+    p3 = fma(h, _dot2(A3, v1, v2), p)
+    u3 = fma(h, _dot2(A3, a1, a2), u)
+    a3, n3, k3, r3, pd3 = stage(p3, u3, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v3 = u3 * r3
+    p4 = fma(h, _dot2(A4, v1, v3), p)
+    u4 = fma(h, _dot2(A4, a1, a3), u)
+    a4, n4, k4, r4, pd4 = stage(p4, u4, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v4 = u4 * r4
+    p5 = fma(h, _dot3(A5, v1, v3, v4), p)
+    u5 = fma(h, _dot3(A5, a1, a3, a4), u)
+    a5, n5, k5, r5, pd5 = stage(p5, u5, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v5 = u5 * r5
+    p6 = fma(h, _dot3(A6, v1, v4, v5), p)
+    u6 = fma(h, _dot3(A6, a1, a4, a5), u)
+    a6, n6, k6, r6, pd6 = stage(p6, u6, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v6 = u6 * r6
+    p7 = fma(h, _dot4(A7, v1, v4, v5, v6), p)
+    u7 = fma(h, _dot4(A7, a1, a4, a5, a6), u)
+    a7, n7, k7, r7, pd7 = stage(p7, u7, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v7 = u7 * r7
+    p8 = fma(h, _dot5(A8, v1, v4, v5, v6, v7), p)
+    u8 = fma(h, _dot5(A8, a1, a4, a5, a6, a7), u)
+    a8, n8, k8, r8, pd8 = stage(p8, u8, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v8 = u8 * r8
+    p9 = fma(h, _dot6(A9, v1, v4, v5, v6, v7, v8), p)
+    u9 = fma(h, _dot6(A9, a1, a4, a5, a6, a7, a8), u)
+    a9, n9, k9, r9, pd9 = stage(p9, u9, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v9 = u9 * r9
+    p10 = fma(h, _dot7(A10, v1, v4, v5, v6, v7, v8, v9), p)
+    u10 = fma(h, _dot7(A10, a1, a4, a5, a6, a7, a8, a9), u)
+    a10, n10, k10, r10, pd10 = stage(p10, u10, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v10 = u10 * r10
+    p11 = fma(h, _dot8(A11, v1, v4, v5, v6, v7, v8, v9, v10), p)
+    u11 = fma(h, _dot8(A11, a1, a4, a5, a6, a7, a8, a9, a10), u)
+    a11, n11, k11, r11, pd11 = stage(p11, u11, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v11 = u11 * r11
+    p12 = fma(h, _dot9(A12, v1, v4, v5, v6, v7, v8, v9, v10, v11), p)
+    u12 = fma(h, _dot9(A12, a1, a4, a5, a6, a7, a8, a9, a10, a11), u)
+    a12, n12, k12, r12, pd12 = stage(p12, u12, q, d, g, s0, s1, s2, s3, shared, b, c)
+    v12 = u12 * r12
+    return ((v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12),
+            (a1, a2, a3, a4, a5, a6, a7, a8, a9, a10, a11, a12),
+            (n1 * u, n2 * u2, n3 * u3, n4 * u4, n5 * u5, n6 * u6, n7 * u7, n8 * u8, n9 * u9,
+             n10 * u10, n11 * u11, n12 * u12),
+            (k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12),
+            (u, u2, u3, u4, u5, u6, u7, u8, u9, u10, u11, u12),
+            (pd1, pd2, pd3, pd4, pd5, pd6, pd7, pd8, pd9, pd10, pd11, pd12))
+
+
+def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+    """Dormand-Prince 8(5,3) (core/dop853.py's tableau and weights).  Error:
+    dop853.f's combination of the fifth- and third-order estimates,
+    err5^2 / sqrt(n (err5^2 + 0.01 err3^2)) over the n scaled components
+    p, u and the friction work (and the drag work with drag), each against
+    atol + rtol |y| as in :func:`_dopri5_step`."""
+    velocities, accelerations, works, turns, speeds, powers = stage_rates(
+        p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c)
+    p_new = fma(h, _weigh8(velocities), p)
+    u_new = fma(h, _weigh8(accelerations), u)
+    work = h * q * _weigh8(works) if FRICTION else 0.0
+    turn = h * d * _weigh8(turns)
+    displacement = h * _weigh8(speeds)
+    drag = h * _weigh8(powers) if DRAG else 0.0
+    scale_p = fma(rtol, max(abs(p), abs(p_new)), atol)
+    scale_u = fma(rtol, max(abs(u), abs(u_new)), atol)
+    e5 = h * _error5(velocities) / scale_p
+    e3 = h * _error3(velocities) / scale_p
+    squares5 = e5 * e5
+    squares3 = e3 * e3
+    e5 = h * _error5(accelerations) / scale_u
+    e3 = h * _error3(accelerations) / scale_u
+    squares5 += e5 * e5
+    squares3 += e3 * e3
+    count = 2.0
+    if FRICTION:
+        scale_w = fma(rtol, abs(work), atol)
+        e5 = h * q * _error5(works) / scale_w
+        e3 = h * q * _error3(works) / scale_w
+        squares5 += e5 * e5
+        squares3 += e3 * e3
+        count += 1.0
+    if DRAG:
+        scale_d = fma(rtol, abs(drag), atol)
+        e5 = h * _error5(powers) / scale_d
+        e3 = h * _error3(powers) / scale_d
+        squares5 += e5 * e5
+        squares3 += e3 * e3
+        count += 1.0
+    denominator = fma(0.01, squares3, squares5)
+    error = squares5 / math.sqrt(count * denominator) if denominator > 0.0 else 0.0
+    return p_new, u_new, work, turn, displacement, drag, error
+
+
+#: method name -> (step template, order, adaptive, step-size control): the
+#: control is (alpha, beta, shrink) of the PI controller in
+#: curve_kernel._trajectory (control.py's gains per pair; after a rejection
+#: the step shrinks by err^-shrink), None for the fixed-step methods
 CURVE_STEPPERS = {
-    "euler": (_euler_step, 1, False),
-    "semi_implicit_euler": (_semi_implicit_euler_step, 1, False),
-    "rk4": (_rk4_step, 4, False),
-    "dopri5": (_dopri5_step, 5, True),
+    "euler": (_euler_step, 1, False, None),
+    "semi_implicit_euler": (_semi_implicit_euler_step, 1, False, None),
+    "rk4": (_rk4_step, 4, False, None),
+    "dopri5": (_dopri5_step, 5, True, (*PI_DOPRI5, 0.2)),
+    "dop853": (_dop853_step, 8, True, (*PI_DOP853, 1.0 / 8.0)),
 }
-
-
