@@ -198,3 +198,33 @@ def test_protocol_and_refusals():
         shape.evaluate(np.zeros((3, 6)), object())  # a rampwork.Scene is for y = f(x) shapes
     with pytest.raises(ConfigError, match="end_angle"):
         Curve.convex_cusp(np.zeros((1, 2)), [1.6])
+    with pytest.raises(ConfigError, match="row"):
+        Curve.convex_cusp(np.zeros((2, 2)), [0.1, 0.2], row=2)
+
+
+def test_a_local_optimisation_through_the_engine_finds_the_derived_optimum():
+    """BFGS over c_1..c_4 from the cycloid, each value and central-difference
+    gradient one kernel call (9 candidates): the frictional brachistochrone's
+    time to 1e-9 (benchmarks/cusp_optimise.py: DE and larger K)."""
+    from scipy.optimize import minimize
+
+    end, mu, k = (1.0, -1.0), 0.1, 4
+    shape, scene = CuspCurve(end=end, k=k), _scene(mu)
+    calls = []
+
+    def value_and_gradient(x, step=1e-5):
+        rows = np.vstack([x, x + step * np.eye(k), x - step * np.eye(k)])
+        ds = shape.evaluate(rows, scene)
+        calls.append(ds.sizes["candidate"])
+        assert ds.admissible.all()
+        t = ds.t_end.values
+        return t[0], (t[1:k + 1] - t[k + 1:]) / (2 * step)
+
+    result = minimize(value_and_gradient, np.zeros(k), jac=True, method="BFGS", options=dict(gtol=1e-9))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        best = frictional_brachistochrone(end, mu, g=G).time
+    cycloid = shape.evaluate(np.zeros((1, k)), scene).t_end.values[0]
+    assert cycloid / best - 1 > 1e-5  # the cycloid is slower by 0.005 % ...
+    assert -1e-11 < result.fun / best - 1 < 1e-9  # ... the optimum found is the derived one
+    assert set(calls) == {2 * k + 1}

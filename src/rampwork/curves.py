@@ -114,7 +114,10 @@ class Curve:
         ``row``; sweep ``row`` and ``end_angle`` together through
         :func:`simulate_curve`.  The position parameter is ``p = 1 + sin(phi)``."""
         data = convex_cusp_shared(coefficients, end_angles)
-        angles = np.broadcast_to(np.asarray(end_angles, dtype=np.float64), (int(data[0]),))
+        rows = int(data[0])
+        if isinstance(row, bool) or not isinstance(row, (int, np.integer)) or not 0 <= row < rows:
+            raise ConfigError("curve.row", f"must be an integer in [0, {rows}), got {row!r}")
+        angles = np.broadcast_to(np.asarray(end_angles, dtype=np.float64), (rows,))
         params = CONVEX_CUSP_FAMILY.arrays({"row": row, "end_angle": angles[row]})
         return cls("convex_cusp", tuple((k, float(v[0])) for k, v in params.items()), "left",
                    None, tuple(data.tolist()))
