@@ -18,6 +18,7 @@ FLOORS = {
     "userfunctions": 1, "ramps": 1, "curves": 1, "curve_families": 1, "schema": 1, "designs": 1, "brachistochrone": 1,
     "scene": 2, "io": 2, "chunkstore": 2, "zarrstore": 2, "reference": 2, "plotting": 2,
     "scenefile": 3, "curve_scene": 3, "plan": 4, "kernels": 4, "runner": 4, "terminal": 4,
+    "descent_shapes": 4,  # shape families for optimisation: run populations in curve scenes
     "warmup": 5, "streaming": 5, "ishigami": 0, "sensitivity": 5, "cluster": 5,
     "shapes": 5, "optimiser": 5, "sweepruns": 5, "curve_chunks": 5,
     "cli": 6, "curve_cli": 6, "optimise_cli": 6, "__main__": 7, "__init__": 7,

@@ -302,3 +302,91 @@ def _check_spline_crossing(spline, t):
         i, j = np.argwhere(cross)[0]
         raise ConfigError("curve.x_points", f"the spline crosses itself (pieces {piece[i]} and "
                           f"{piece[j]}); pass allow_crossing=True where a crossing is meant")
+
+
+# ---------------------------------------------------------------------------
+# the convex cusp (core/curves.py): a population of convex curves from a
+# vertical start, rho(phi) = cos(phi) exp(sum c_k T_k(t)), one row of
+# ``shared`` each; the swept parameters pick the row and give its end angle.
+
+#: Chebyshev terms of X(t) and Y(t): their integrands are entire (sin, cos and
+#: exp of polynomials); tests/test_cusp_curve.py checks 1e-15 against quad
+CUSP_TERMS = 64
+_NODES = np.cos(math.pi * (np.arange(CUSP_TERMS) + 0.5) / CUSP_TERMS)
+#: values at _NODES -> Chebyshev coefficients of the antiderivative from t = -1
+_ANTIDERIVATIVE = np.stack([np.polynomial.chebyshev.chebint(column, lbnd=-1.0) for column in
+                            np.linalg.inv(np.polynomial.chebyshev.chebvander(
+                                _NODES, CUSP_TERMS - 1)).T], axis=1)
+#: values at _NODES -> the integral over t in [-1, 1] (T_k(1) = 1)
+_END_WEIGHTS = _ANTIDERIVATIVE.sum(axis=0)
+
+
+def contract(values, weights):
+    """sum_j values[..., j] weights[..., j] (weights (n,) or (m, n): then
+    (..., m)), in a fixed order: a candidate's numbers do not depend on the
+    population it is part of (a BLAS product may round rows differently by
+    where they fall in its blocks)."""
+    weights = np.asarray(weights)
+    extra = (None,) if weights.ndim == 2 else ()
+    out = 0.0
+    for j in range(values.shape[-1]):
+        out = out + values[(..., j) + extra] * weights[..., j]
+    return out
+
+
+def _check_convex_cusp(a):
+    angle = a["end_angle"]
+    bad = ~((angle > -0.5 * math.pi) & (angle < 0.5 * math.pi))
+    if bad.any():
+        raise ConfigError("curve.end_angle", "the tangent angle at the end must be in (-pi/2, "
+                          f"pi/2) (the curve turns from straight down towards up), got "
+                          f"{float(angle[bad][0])!r}")
+
+
+CONVEX_CUSP_FAMILY = CurveFamily(
+    "convex_cusp", "a convex curve from a vertical start at the origin (a cusp): radius of "
+    "curvature ds/dphi = cos(phi) exp(sum c_k T_k(t)), t = 2 (phi + pi/2) / (end_angle + pi/2) "
+    "- 1, one curve per row of the shared data (rampwork.curve_families.convex_cusp_shared); "
+    "p = 1 + sin(phi)",
+    (_p("row", "1", "row of the shared data: which curve of the population"),
+     _p("end_angle", "rad", "tangent angle at the end (the row's; > 0: climbing)")),
+    core_curves.convex_cusp_frame, core_curves.convex_cusp_point,
+    lambda a: (np.zeros_like(a["row"] + a["end_angle"]), 1.0 + np.sin(a["end_angle"]) + 0 * a["row"]),
+    position="1 + sin(phi)", check=_check_convex_cusp)
+
+
+def _convex_cusp_inputs(coefficients, end_angles):
+    c = np.atleast_2d(np.asarray(coefficients, dtype=np.float64))
+    angles = np.broadcast_to(np.asarray(end_angles, dtype=np.float64), (c.shape[0],))
+    if c.ndim != 2 or not (np.isfinite(c).all() and np.isfinite(angles).all()):
+        raise ConfigError("curve.coefficients", "expected finite numbers, one row per curve")
+    _check_convex_cusp({"end_angle": angles})
+    return c, angles
+
+
+def convex_cusp_rates(coefficients, end_angles):
+    """(dX/dt, dY/dt, ds/dt) at the quadrature nodes, each (rows, CUSP_TERMS)."""
+    c, angles = _convex_cusp_inputs(coefficients, end_angles)
+    half = 0.5 * (angles + 0.5 * math.pi)[:, None]  # dtheta/dt
+    theta = half * (_NODES + 1.0)
+    ds_dt = half * np.sin(theta) * np.exp(np.polynomial.chebyshev.chebval(_NODES, c.T))
+    return ds_dt * np.sin(theta), -ds_dt * np.cos(theta), ds_dt
+
+
+def convex_cusp_end(coefficients, end_angles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(X, Y, arc length) at the end of each row's curve, by the quadrature
+    that :func:`convex_cusp_shared` stores (so the kernel's point at the end
+    agrees to rounding)."""
+    return tuple(contract(rate, _END_WEIGHTS) for rate in convex_cusp_rates(coefficients, end_angles))
+
+
+def convex_cusp_shared(coefficients, end_angles) -> np.ndarray:
+    """The ``shared`` data of a population of convex cusps (layout in
+    :mod:`rampwork.core.curves`): ``coefficients`` (rows, nc) of E,
+    ``end_angles`` (rows,) their tangent angles at the end (rad)."""
+    c, angles = _convex_cusp_inputs(coefficients, end_angles)
+    dx, dy, _ = convex_cusp_rates(c, angles)
+    block = np.hstack([(angles + 0.5 * math.pi)[:, None], c, contract(dx, _ANTIDERIVATIVE),
+                       contract(dy, _ANTIDERIVATIVE)])
+    return np.concatenate([[c.shape[0], c.shape[1], CUSP_TERMS + 1, block.shape[1]],
+                           block.ravel()])

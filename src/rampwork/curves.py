@@ -25,8 +25,8 @@ from . import validate
 from .core import curve_kernel, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
-from .curve_families import (CONTACTS, FAMILIES, SIDES, SPLINE_FAMILY,  # noqa: F401 (public)
-                             TWO_PI, CurveFamily, spline_shared)
+from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
+                             SPLINE_FAMILY, TWO_PI, CurveFamily, convex_cusp_shared, spline_shared)
 from .errors import ConfigError
 from .ramps import Ramp
 
@@ -104,8 +104,28 @@ class Curve:
                   end, tangents if end == "clamped" else None, bool(allow_crossing))
         return cls("spline", (), side, None, data, points)
 
+    @classmethod
+    def convex_cusp(cls, coefficients, end_angles, *, row: int = 0) -> "Curve":
+        """Convex curves from a vertical start at the origin (family
+        ``convex_cusp``, docs/physics.md §5.2): radius of curvature
+        ``ds/dphi = cos(phi) exp(sum c_k T_k(t))``, ``t`` mapping the tangent
+        angle from -pi/2 to the end angle onto [-1, 1]; one curve per row of
+        ``coefficients`` (rows, nc) and ``end_angles`` (rows,).  This one is
+        ``row``; sweep ``row`` and ``end_angle`` together through
+        :func:`simulate_curve`.  The position parameter is ``p = 1 + sin(phi)``."""
+        data = convex_cusp_shared(coefficients, end_angles)
+        rows = int(data[0])
+        if isinstance(row, bool) or not isinstance(row, (int, np.integer)) or not 0 <= row < rows:
+            raise ConfigError("curve.row", f"must be an integer in [0, {rows}), got {row!r}")
+        angles = np.broadcast_to(np.asarray(end_angles, dtype=np.float64), (rows,))
+        params = CONVEX_CUSP_FAMILY.arrays({"row": row, "end_angle": angles[row]})
+        return cls("convex_cusp", tuple((k, float(v[0])) for k, v in params.items()), "left",
+                   None, tuple(data.tolist()))
+
     @property
     def spec(self) -> CurveFamily:
+        if self.family == "convex_cusp":
+            return CONVEX_CUSP_FAMILY
         if self.data is not None:
             return SPLINE_FAMILY
         return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
@@ -119,7 +139,7 @@ class Curve:
         """(p_lo, p_hi) of the position parameter."""
         if self.ramp is not None:
             return np.array([self.ramp.domain[0]]), np.array([self.ramp.domain[1]])
-        if self.data is not None:
+        if self.family == "spline":
             n = int(self.data[0])
             return np.array([0.0]), np.array([self.data[1 + n]])
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
@@ -230,11 +250,11 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     rtol = validate.positive("integrator.rtol", rtol)
     atol = rtol if atol is None else validate.positive("integrator.atol", atol)
     spec = curve.spec
-    if (curve.ramp is not None or curve.data is not None) and shape:
+    fixed = curve.ramp is not None or curve.family == "spline"
+    if fixed and shape:
         raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (a "
                           "spline's points are fixed; sweep a wrapped ramp's parameters with "
                           "rampwork.simulate on the ramp)")
-    fixed = curve.ramp is not None or curve.data is not None
     arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
@@ -259,14 +279,14 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
               for a in arrays.values()]
     joint = None
-    if curve.ramp is not None or curve.data is not None:
+    if fixed:
         lo, hi = curve.domain()
         p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
         shared = curve._shared()
     else:
         lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
-        shared = np.zeros(1)
+        shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})
     joints = joint is not None and bool(np.isfinite(joint).any())
     start = flat["s0"]

@@ -262,3 +262,67 @@ def evaluate_template(p, p0, p1, p2, p3, shared, out):
 
 
 curve_frame = curve_point = None  # bound per family by jit.specialise
+
+
+# ---------------------------------------------------------------------------
+# convex cusp: a convex curve from a vertical start at the origin (a cusp, as
+# the cycloid's), given by its radius of curvature as a function of the
+# tangent angle, rho = ds/dphi = cos(phi) exp(E(t)), E = sum c_k T_k(t) with
+# t = 2 theta / theta_B - 1, theta = phi + pi/2 in [0, theta_B] (the form of
+# the frictional brachistochrone's direct check, docs/brachistochrone.md).
+# Its position parameter is p = 1 + sin(phi) = 1 - cos(theta): regular, as
+# dp/ds = cos(phi) / rho = exp(-E) needs no division, and it gives the
+# tangent without cancellation: sin phi = p - 1, cos phi = sqrt(p (2 - p)).
+# One row of ``shared`` per curve (p0: the row), so a population shares one
+# array: [rows, nc, nx, block, then per row: theta_B, c_0..c_{nc-1}, the nx
+# Chebyshev coefficients in t of X, then of Y (m)]
+# (rampwork.curve_families.convex_cusp_shared builds it).  kappa = 1 / rho
+# is infinite at the cusp itself, where only a Runge-Kutta stage off the
+# trajectory (p = 0 with u != 0, a second stage) evaluates it with a speed:
+# it gets CUSP_CURVATURE, whose sign (towards the block) the rest rule reads
+# and whose force rounds to 0, as the cycloid's nu = g cos phi at rest.
+
+#: the curvature given at the cusp itself (m-1): its sign is what matters
+CUSP_CURVATURE = 1e-300
+
+
+@jit
+def _cusp_row(p0, shared):
+    """(start of the row's block, nc, nx); a row out of range is clamped."""
+    row = min(max(int(p0), 0), int(shared[0]) - 1)
+    return 4 + row * int(shared[3]), int(shared[1]), int(shared[2])
+
+
+@jit
+def _chebyshev_sum(shared, start, n, t):
+    """sum_{k < n} shared[start + k] T_k(t), by Clenshaw's recurrence."""
+    b1 = 0.0
+    b2 = 0.0
+    two_t = 2.0 * t
+    for k in range(n - 1, 0, -1):
+        b1, b2 = fma(two_t, b1, shared[start + k] - b2), b1
+    return fma(t, b1, shared[start] - b2)
+
+
+@jit
+def _cusp_t(p, theta_end):
+    return 4.0 * math.asin(math.sqrt(0.5 * p)) / theta_end - 1.0  # theta = 2 asin(sqrt(p/2))
+
+
+@jit
+def convex_cusp_frame(p, p0, p1, p2, p3, shared):
+    start, nc, nx = _cusp_row(p0, shared)
+    e = math.exp(_chebyshev_sum(shared, start + 1, nc, _cusp_t(p, shared[start])))
+    cos_phi = math.sqrt(p * (2.0 - p))
+    kappa = CUSP_CURVATURE if p == 0.0 else 1.0 / (cos_phi * e)
+    return p - 1.0, cos_phi, kappa, 1.0 / e
+
+
+@jit
+def convex_cusp_point(p, p0, p1, p2, p3, shared):
+    if p == 0.0:
+        return 0.0, 0.0  # A, exactly
+    start, nc, nx = _cusp_row(p0, shared)
+    t = _cusp_t(p, shared[start])
+    start += 1 + nc
+    return _chebyshev_sum(shared, start, nx, t), _chebyshev_sum(shared, start + nx, nx, t)
