@@ -78,6 +78,11 @@ class CuspCurve:
     def __repr__(self) -> str:
         return f"CuspCurve(end={self.end!r}, k={self.k})"
 
+    def describe(self) -> str:
+        """One line for the history dataset and the checkpoint's fingerprint."""
+        return (f"CuspCurve: convex curves from rest at a vertical start (0, 0) to {list(self.end)}, "
+                f"K = {self.k}, bounds {[list(b) for b in self.bounds]}")
+
     # -- geometry ----------------------------------------------------------------------------
     def _population(self, population) -> np.ndarray:
         c = np.asarray(population, dtype=np.float64)
@@ -132,7 +137,7 @@ class CuspCurve:
         return {"coefficients": coefficients, "end_angle": angles, "through_b": through}
 
     # -- the protocol ------------------------------------------------------------------------
-    def evaluate(self, population, scene) -> xr.Dataset:
+    def evaluate(self, population, scene, *, threads: int | None = None) -> xr.Dataset:
         """One trajectory per candidate (row of ``population``), from A
         (at rest, or ``scene.u0`` along the curve) towards B, in one
         curve-kernel call with ``scene``'s physics and integrator (its curve
@@ -175,6 +180,8 @@ class CuspCurve:
             "admissible": (dims, arrived.copy(), {
                 "long_name": "a curve through A and B on which the block stayed in contact and "
                 "arrived"}),
+            "inside": (dims, shapes["through_b"].copy(), {
+                "long_name": "the shape is admissible: a curve through A and B"}),
             "through_b": (dims, shapes["through_b"], {
                 "long_name": "an end angle puts the curve's end at B (else it ran towards the "
                 "closest direction)"}),
