@@ -20,12 +20,20 @@ method, to rounding: the largest clean step size and the smallest that is
 not are adjacent floats, and the step of the latter is committed.  Then the
 rest rule (§5) decides at a stop.
 
+This module holds a trajectory's scalar parts, on the lane state of
+``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
+:func:`_start_lane`, :func:`_iterate` (one step, with its event resolved in
+full) and :func:`_finish_lane`.  The lane kernel (curve_lanes.py) takes
+clean steps for a block of lanes at once and hands every other step to
+:func:`_iterate`; run with its vector loop off, it is the scalar kernel the
+tests compare it with, bit for bit.
+
 The functions here are templates: ``curve_frame``, ``curve_point``,
 ``curve_step`` and the helper names are globals bound per scene by
-:func:`build_curve_kernel` through ``jit.specialise``, with the switches
-``ONE_SIDED``, ``FRICTION`` and ``DRAG*``: a scene compiles only the effects
-it uses.  Each trajectory runs alone, with no data-dependent choice shared
-between trajectories, so results do not depend on the batch it is run in.
+``curve_lanes.build_curve_kernel`` through ``jit.specialise``, with the
+switches ``ONE_SIDED``, ``FRICTION`` and ``DRAG*``: a scene compiles only
+the effects it uses.  No data-dependent choice is shared between
+trajectories, so results do not depend on the batch, lane or thread.
 """
 
 from __future__ import annotations
@@ -35,14 +43,18 @@ import math
 import numpy as np
 
 from . import status as st
-from .control import ERROR_FLOOR, FACTOR_MAX, FACTOR_MIN, PI_DOPRI5, SAFETY
-from .curve_steppers import CURVE_STEPPERS, _stage, normal_along_n
-from .jit import fma, specialise
+from .control import (ERROR_FLOOR, ERROR_TINY, FACTOR_MAX, FACTOR_MIN, SAFETY, exp2_approx,
+                      log2_approx)
+from .curve_steppers import CURVE_STEPPERS, normal_along_n  # noqa: F401 (CURVE_STEPPERS: public)
+from .jit import fma, jit
 
-# bound per scene by build_curve_kernel (compile-time constants)
-curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = None
-contact_sign = x_travelled = None
+# bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
+curve_frame = curve_point = curve_step = try_step = rest_rule = None
+contact_sign = x_travelled = accepted_factor = rejected_factor = None
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
+# the pair's PI gains (control.PI_DOPRI5, PI_DOP853) and the exponent of a
+# rejected step's shrink factor (1 / order)
+PI_ALPHA = PI_BETA = REJECT_EXPONENT = 0.0
 JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
 # family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
@@ -61,6 +73,25 @@ INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", 
           "drag_b", "drag_c", "p_joint")
 (I_P, I_U, I_MUK, I_MUS, I_G, I_M, I_S0, I_S1, I_S2, I_S3, I_LO, I_HI, I_B, I_C,
  I_JOINT) = range(len(INPUTS))
+# --- a trajectory's state: field F of lane i at lanes[F * LANES + i] (curve_lanes.py) ---
+# P, U: position parameter and signed speed; D, SN: direction and contact sign
+# of the mode; T, HN: time and the next step size; EPREV, REJB: the PI
+# controller's last accepted error and whether the last attempt was
+# rejected; the integrals per unit mass WORK, CURV, DISP, PATH, PATHX,
+# DRAGW, and NUMIN (side nu, smallest); XNOW, COSNOW: X and cos phi at P;
+# STEPS, NREJ, INROW (events in a row), NREV; PLIFT; STATUS (-1.0: an empty
+# lane; st.NOT_RUN while running); TRAJ: the input column; E0, KAPPA0: the
+# start's energy and curvature; BRANCH: the joint branch (family's p3) of the
+# last step; FLAG: 1.0 where the vector loop left the lane's step to the
+# scalar code; then the trajectory's inputs.
+(P, U, D, SN, T, HN, EPREV, REJB, WORK, CURV, DISP, PATH, PATHX, DRAGW, NUMIN, XNOW,
+ COSNOW, STEPS, NREJ, INROW, NREV, PLIFT, STATUS, TRAJ, E0, KAPPA0, BRANCH, FLAG,
+ MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT) = range(39)
+N_FIELDS = 39
+#: lanes per block (the vector loop's width); results do not depend on it
+LANES = 64
+#: the empty lane's STATUS
+EMPTY = -1.0
 #: events in a row without a full step between them before a trajectory is declared diverged
 MAX_EVENTS_IN_ROW = 100
 #: an adaptive step that shrinks below this fraction of the time reached is a divergence
@@ -148,13 +179,10 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
-    """One trajectory from column j of ``inputs``; writes column j of ``out``
-    and returns its status.  ``h``: the step (an adaptive pair's first).
-
-    An adaptive step is accepted where its error norm is <= 1, with the ramp
-    kernel's PI controller (control.py); a step with an event is judged at
-    the event, after it is located (its error is that of the shorter step)."""
+def _start_lane(lanes, i, inputs, j, shared, h, side):
+    """Load trajectory j (column j of ``inputs``) into lane i: its state at
+    t = 0 and, at rest, the rest rule's verdict (STATUS stays NOT_RUN while
+    it moves).  ``h``: the step (an adaptive pair's first)."""
     p = inputs[I_P, j]
     u = inputs[I_U, j]
     mu_k = inputs[I_MUK, j]
@@ -166,26 +194,11 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     s3 = inputs[I_S3, j]
     p_lo = inputs[I_LO, j]
     p_hi = inputs[I_HI, j]
-    b = inputs[I_B, j]
-    c = inputs[I_C, j]
-    joint = inputs[I_JOINT, j]
     x_now, y0 = curve_point(p, s0, s1, s2, s3, shared)
-    energy_start = fma(g, y0, 0.5 * u * u)
-    t = 0.0
-    work = curvature = displacement = path = path_x = drag_work = 0.0
-    reversals = 0
-    steps = 0
-    rejected = 0
-    in_row = 0
-    h_next = h
-    error_previous = ERROR_FLOOR
-    rejected_before = False
     status = st.NOT_RUN
     p_lift = math.nan
-    sin0, cos0, kappa0, _ = curve_frame(p, s0, s1, s2, s3, shared)
-    cos_now = cos0
+    _, cos0, kappa0, _ = curve_frame(p, s0, s1, s2, s3, shared)
     nu = normal_along_n(u, cos0, kappa0, g)
-    nu_min = side * nu
     d = 0.0
     if u == 0.0:
         d, status = rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared)
@@ -195,117 +208,206 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
             status = st.LIFTED_OFF
     if status == st.LIFTED_OFF:
         p_lift = p
-    sn = contact_sign(nu, kappa0, side)
     if status == st.NOT_RUN and ((d > 0.0 and p >= p_hi) or (d < 0.0 and p <= p_lo)):
         status = st.EXITED
-    while status == st.NOT_RUN:
-        if t >= t_max:
-            status = st.TIMEOUT
-            break
-        step_size = h_next if t + h_next <= t_max else t_max - t
-        q = d * mu_k * sn
-        if JOINTS:  # the piece the step starts on, or moves into from the joint
-            s3 = d if p == joint else (1.0 if p > joint else -1.0)
-            if joint != joint:
-                s3 = 0.0
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
-            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
-            atol)
-        if not clean:
-            # the event: bisect on the step size to adjacent floats lo < hi,
-            # lo clean, hi not, and take the step of size hi
-            lo = 0.0
-            hi = step_size
-            while True:
-                mid = 0.5 * (lo + hi)
-                if not (lo < mid < hi):
-                    break
-                if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
-                            joint, rtol, atol)[8]:
-                    lo = mid
-                else:
-                    hi = mid
-            step_size = hi
-            p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
-                p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
-            atol)
-        if ADAPTIVE:
-            if not (err <= 1.0):  # rejected (NaN included): shrink and try again
-                rejected += 1
-                factor = FACTOR_MIN
-                if err == err:
-                    factor = max(FACTOR_MIN, SAFETY * err ** -0.2)
-                h_next = step_size * factor
-                rejected_before = True
-                if not (h_next > SMALLEST_STEP * max(t, 1.0)):
-                    status = st.DIVERGED
-                    break
-                continue
-            if clean:  # an event step's size says nothing of the next one's
-                factor = SAFETY * max(err, 1e-30) ** -PI_DOPRI5[0] * error_previous ** PI_DOPRI5[1]
-                factor = min(max(factor, FACTOR_MIN), 1.0 if rejected_before else FACTOR_MAX)
-                h_next = step_size * factor
-                error_previous = max(err, ERROR_FLOOR)
-            rejected_before = False
-        if clean:
-            in_row = 0
-        else:
-            in_row += 1
-        # nu may be +-inf at a cusp (infinite curvature, frictionless): not NaN
-        finite = (math.isfinite(p1) and math.isfinite(u1) and math.isfinite(dw)
-                  and nu1 == nu1 and math.isfinite(dk))
-        if not finite or in_row > MAX_EVENTS_IN_ROW:
-            status = st.DIVERGED
-            break
-        t += step_size
-        steps += 1
-        work += dw
-        curvature += dk
-        displacement += dx
-        path += d * dx
-        if DRAG:
-            drag_work += dwd
-        nu_min = min(nu_min, side * nu1)
-        # an exit step ends on the end (p1 passes it by the bisection's last float)
-        dx_step, x_now = x_travelled(p, x_now, cos_now, min(max(p1, p_lo), p_hi), cos1, s0, s1,
-                                     s2, s3, shared)
-        cos_now = cos1
-        path_x += dx_step
-        if clean:
-            p = p1
-            u = u1
-            continue
-        if not (p1 <= p_hi):  # exits first: the end is where the trajectory ends
-            p = p_hi
-            u = u1
-            status = st.EXITED
-            break
-        if not (p1 >= p_lo):
-            p = p_lo
-            u = u1
-            status = st.EXITED
-            break
-        p = p1
-        u = u1
-        if not (sn * nu1 > 0.0):
-            if ONE_SIDED:
-                p_lift = p
-                status = st.LIFTED_OFF
+    for field in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG):
+        lanes[field * LANES + i] = 0.0
+    lanes[P * LANES + i] = p
+    lanes[U * LANES + i] = u
+    lanes[D * LANES + i] = d
+    lanes[SN * LANES + i] = contact_sign(nu, kappa0, side)
+    lanes[HN * LANES + i] = h
+    lanes[EPREV * LANES + i] = ERROR_FLOOR
+    lanes[NUMIN * LANES + i] = side * nu
+    lanes[XNOW * LANES + i] = x_now
+    lanes[COSNOW * LANES + i] = cos0
+    lanes[PLIFT * LANES + i] = p_lift
+    lanes[STATUS * LANES + i] = status
+    lanes[TRAJ * LANES + i] = j
+    lanes[E0 * LANES + i] = fma(g, y0, 0.5 * u * u)
+    lanes[KAPPA0 * LANES + i] = kappa0
+    lanes[BRANCH * LANES + i] = s3
+    lanes[MUK * LANES + i] = mu_k
+    lanes[MUS * LANES + i] = mu_s
+    lanes[G * LANES + i] = g
+    lanes[S0 * LANES + i] = s0
+    lanes[S1 * LANES + i] = s1
+    lanes[S2 * LANES + i] = s2
+    lanes[LO * LANES + i] = p_lo
+    lanes[HI * LANES + i] = p_hi
+    lanes[B * LANES + i] = inputs[I_B, j]
+    lanes[C * LANES + i] = inputs[I_C, j]
+    lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
+
+
+@jit
+def branch(p, d, joint):
+    """JOINTS: the piece a step from p in direction d starts on, or moves
+    into from the joint (the family's p3; 0.0 where there is no joint)."""
+    s3 = d if p == joint else (1.0 if p > joint else -1.0)
+    return 0.0 if joint != joint else s3
+
+
+def _accepted_factor(err, error_previous, rejected_before):
+    """The next step's factor after an accepted step (the PI controller of
+    control.py, with its vectorisable log2 / exp2: no pow, so the lane loop
+    of curve_lanes.py vectorises)."""
+    factor = SAFETY * exp2_approx(PI_BETA * log2_approx(error_previous)
+                                  - PI_ALPHA * log2_approx(max(err, ERROR_TINY)))
+    return min(max(factor, FACTOR_MIN), 1.0 if rejected_before else FACTOR_MAX)
+
+
+def _rejected_factor(err):
+    """The factor that shrinks a rejected step (NaN: the smallest)."""
+    if err == err:
+        return max(FACTOR_MIN, SAFETY * exp2_approx(-REJECT_EXPONENT * log2_approx(err)))
+    return FACTOR_MIN
+
+
+def _iterate(lanes, i, shared, t_max, side, rtol, atol):
+    """One pass of lane i's loop, in full: an attempted step with its event
+    located and resolved, or the verdict (timeout, divergence).  The vector
+    loop (curve_lanes.py) does the same for a clean step with selects and
+    leaves every other step to this.
+
+    An adaptive step is accepted where its error norm is <= 1, with the ramp
+    kernel's PI controller (control.py); a step with an event is judged at
+    the event, after it is located (its error is that of the shorter step)."""
+    p = lanes[P * LANES + i]
+    u = lanes[U * LANES + i]
+    d = lanes[D * LANES + i]
+    sn = lanes[SN * LANES + i]
+    t = lanes[T * LANES + i]
+    mu_k = lanes[MUK * LANES + i]
+    g = lanes[G * LANES + i]
+    s0 = lanes[S0 * LANES + i]
+    s1 = lanes[S1 * LANES + i]
+    s2 = lanes[S2 * LANES + i]
+    s3 = lanes[BRANCH * LANES + i]
+    p_lo = lanes[LO * LANES + i]
+    p_hi = lanes[HI * LANES + i]
+    b = lanes[B * LANES + i]
+    c = lanes[C * LANES + i]
+    joint = lanes[JOINT * LANES + i]
+    h_next = lanes[HN * LANES + i]
+    if t >= t_max:
+        lanes[STATUS * LANES + i] = st.TIMEOUT
+        return
+    step_size = h_next if t + h_next <= t_max else t_max - t
+    q = d * mu_k * sn
+    if JOINTS:
+        s3 = branch(p, d, joint)
+        lanes[BRANCH * LANES + i] = s3
+    p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
+        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol)
+    if not clean:
+        # the event: bisect on the step size to adjacent floats lo < hi,
+        # lo clean, hi not, and take the step of size hi
+        lo = 0.0
+        hi = step_size
+        while True:
+            mid = 0.5 * (lo + hi)
+            if not (lo < mid < hi):
                 break
-            sn = -sn
-        if not (d * u1 > 0.0):
-            u = 0.0
-            d, status = rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared)
-            if status == st.NOT_RUN:
-                reversals += 1
-                _, cos_r, kappa_r, _ = curve_frame(p, s0, s1, s2, s3, shared)
-                sn = contact_sign(g * cos_r, kappa_r, side)
-            elif status == st.LIFTED_OFF:
-                p_lift = p
+            if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
+                        joint, rtol, atol)[8]:
+                lo = mid
+            else:
+                hi = mid
+        step_size = hi
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
+            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint,
+            rtol, atol)
+    if ADAPTIVE:
+        if not (err <= 1.0):  # rejected (NaN included): shrink and try again
+            lanes[NREJ * LANES + i] += 1.0
+            h_next = step_size * rejected_factor(err)
+            lanes[HN * LANES + i] = h_next
+            lanes[REJB * LANES + i] = 1.0
+            if not (h_next > SMALLEST_STEP * max(t, 1.0)):
+                lanes[STATUS * LANES + i] = st.DIVERGED
+            return
+        if clean:  # an event step's size says nothing of the next one's
+            lanes[HN * LANES + i] = step_size * accepted_factor(
+                err, lanes[EPREV * LANES + i], lanes[REJB * LANES + i] != 0.0)
+            lanes[EPREV * LANES + i] = max(err, ERROR_FLOOR)
+        lanes[REJB * LANES + i] = 0.0
+    in_row = 0.0 if clean else lanes[INROW * LANES + i] + 1.0
+    lanes[INROW * LANES + i] = in_row
+    # nu may be +-inf at a cusp (infinite curvature, frictionless): not NaN
+    finite = (math.isfinite(p1) and math.isfinite(u1) and math.isfinite(dw)
+              and nu1 == nu1 and math.isfinite(dk))
+    if not finite or in_row > MAX_EVENTS_IN_ROW:
+        lanes[STATUS * LANES + i] = st.DIVERGED
+        return
+    lanes[T * LANES + i] = t + step_size
+    lanes[STEPS * LANES + i] += 1.0
+    lanes[WORK * LANES + i] += dw
+    lanes[CURV * LANES + i] += dk
+    lanes[DISP * LANES + i] += dx
+    lanes[PATH * LANES + i] += d * dx
+    if DRAG:
+        lanes[DRAGW * LANES + i] += dwd
+    lanes[NUMIN * LANES + i] = min(lanes[NUMIN * LANES + i], side * nu1)
+    # an exit step ends on the end (p1 passes it by the bisection's last float)
+    dx_step, x_now = x_travelled(p, lanes[XNOW * LANES + i], lanes[COSNOW * LANES + i],
+                                 min(max(p1, p_lo), p_hi), cos1, s0, s1, s2, s3, shared)
+    lanes[XNOW * LANES + i] = x_now
+    lanes[COSNOW * LANES + i] = cos1
+    lanes[PATHX * LANES + i] += dx_step
+    lanes[U * LANES + i] = u1
+    if clean:
+        lanes[P * LANES + i] = p1
+        return
+    if not (p1 <= p_hi):  # exits first: the end is where the trajectory ends
+        lanes[P * LANES + i] = p_hi
+        lanes[STATUS * LANES + i] = st.EXITED
+        return
+    if not (p1 >= p_lo):
+        lanes[P * LANES + i] = p_lo
+        lanes[STATUS * LANES + i] = st.EXITED
+        return
+    lanes[P * LANES + i] = p1
+    if not (sn * nu1 > 0.0):
+        if ONE_SIDED:
+            lanes[PLIFT * LANES + i] = p1
+            lanes[STATUS * LANES + i] = st.LIFTED_OFF
+            return
+        sn = -sn
+        lanes[SN * LANES + i] = sn
+    if not (d * u1 > 0.0):
+        lanes[U * LANES + i] = 0.0
+        d, status = rest_rule(p1, mu_k, lanes[MUS * LANES + i], g, side, s0, s1, s2, s3, shared)
+        lanes[D * LANES + i] = d
+        lanes[STATUS * LANES + i] = status
+        if status == st.NOT_RUN:
+            lanes[NREV * LANES + i] += 1.0
+            _, cos_r, kappa_r, _ = curve_frame(p1, s0, s1, s2, s3, shared)
+            lanes[SN * LANES + i] = contact_sign(g * cos_r, kappa_r, side)
+        elif status == st.LIFTED_OFF:
+            lanes[PLIFT * LANES + i] = p1
+
+
+def _finish_lane(lanes, i, inputs, shared, out, status):
+    """Write lane i's trajectory (finished) to its column of ``out`` and
+    ``status``; the lane becomes empty."""
+    j = int(lanes[TRAJ * LANES + i])
+    p = lanes[P * LANES + i]
+    u = lanes[U * LANES + i]
+    g = lanes[G * LANES + i]
+    s0 = lanes[S0 * LANES + i]
+    s1 = lanes[S1 * LANES + i]
+    s2 = lanes[S2 * LANES + i]
+    s3 = lanes[BRANCH * LANES + i]
+    work = lanes[WORK * LANES + i]
+    drag_work = lanes[DRAGW * LANES + i]
+    path = lanes[PATH * LANES + i]
+    p_lift = lanes[PLIFT * LANES + i]
+    energy_start = lanes[E0 * LANES + i]
     m = inputs[I_M, j]
     x_end, y_end = curve_point(p, s0, s1, s2, s3, shared)
     energy_end = fma(g, y_end, 0.5 * u * u)
-    out[O_T, j] = t
+    out[O_T, j] = lanes[T * LANES + i]
     out[O_P, j] = p
     out[O_U, j] = u
     out[O_X, j] = x_end
@@ -314,11 +416,11 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     out[O_WE, j] = m * (energy_start - energy_end)
     out[O_WD, j] = m * drag_work
     out[O_BAL, j] = m * (work + drag_work - (energy_start - energy_end))
-    out[O_DISP, j] = displacement
+    out[O_DISP, j] = lanes[DISP * LANES + i]
     out[O_PATH, j] = path
-    out[O_XPATH, j] = path_x
-    out[O_KMEAN, j] = curvature / path if path > 0.0 else kappa0
-    out[O_NUMIN, j] = m * nu_min
+    out[O_XPATH, j] = lanes[PATHX * LANES + i]
+    out[O_KMEAN, j] = lanes[CURV * LANES + i] / path if path > 0.0 else lanes[KAPPA0 * LANES + i]
+    out[O_NUMIN, j] = m * lanes[NUMIN * LANES + i]
     out[O_PLIFT, j] = p_lift
     if p_lift == p_lift:
         x_lift, y_lift = curve_point(p_lift, s0, s1, s2, s3, shared)
@@ -327,51 +429,11 @@ def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
     else:
         out[O_XLIFT, j] = math.nan
         out[O_YLIFT, j] = math.nan
-    out[O_NREV, j] = reversals
-    out[O_STEPS, j] = steps
-    out[O_REJECTED, j] = rejected
-    return status
-
-
-def _batch(inputs, shared, h, t_max, side, rtol, atol, out, status):
-    """Every column of ``inputs`` (rows :data:`INPUTS`) into ``out`` (rows
-    :data:`OUTPUTS`) and ``status``."""
-    for j in range(inputs.shape[1]):
-        status[j] = trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out)
-
-
-def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
-                       friction: bool = True, drag_linear: bool = False,
-                       drag_quadratic: bool = False, joints: bool = False, cache: bool = True):
-    """The batch function ``(inputs, shared, h, t_max, side, rtol, atol,
-    out, status)`` of one curve family (``key`` names it uniquely;
-    ``frame``, ``point`` its jitted functions) and ``method``, compiled with
-    only the effects asked for."""
-    if method not in CURVE_STEPPERS:
-        raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
-    flags = "".join(suffix for on, suffix in (
-        (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
-        (drag_quadratic, "_dragc"), (joints, "_joints")) if on)
-    name = f"curve_{key}_{method}{flags}"
-    constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": CURVE_STEPPERS[method][2], "JOINTS": joints,
-                 "FRICTION": friction, "DRAG_LINEAR": drag_linear,
-                 "DRAG_QUADRATIC": drag_quadratic, "DRAG": drag_linear or drag_quadratic}
-    options = {} if cache else {"cache": False}
-
-    def build(template, suffix, **more):
-        constants.update(more)
-        return specialise(template, f"{name}_{suffix}", dict(constants), **options)
-
-    built_stage = build(_stage, "stage")
-    built_step = build(CURVE_STEPPERS[method][0], "step", stage=built_stage)
-    built_try = build(_try_step, "try", curve_step=built_step)
-    built_rest = build(_rest_rule, "rest")
-    built_sign = build(_contact_sign, "sign")
-    built_x = build(_x_travelled, "xpath")
-    built_trajectory = build(_trajectory, "trajectory", try_step=built_try, rest_rule=built_rest,
-                             contact_sign=built_sign, x_travelled=built_x)
-    return build(_batch, "batch", trajectory=built_trajectory)
+    out[O_NREV, j] = lanes[NREV * LANES + i]
+    out[O_STEPS, j] = lanes[STEPS * LANES + i]
+    out[O_REJECTED, j] = lanes[NREJ * LANES + i]
+    status[j] = int(lanes[STATUS * LANES + i])
+    lanes[STATUS * LANES + i] = EMPTY
 
 
 def empty_outputs(n: int) -> tuple[np.ndarray, np.ndarray]:
