@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 import rampwork as rw
-from rampwork.core import curve_lanes
+from rampwork.core import curve_lanes, status as st
 from rampwork.core.curve_steppers import CURVE_STEPPERS
-from rampwork.core.threads import using_threads
+from rampwork.core.threads import max_threads, using_threads
 from rampwork.curves import Curve, prepare_curve_run
 
 METHODS = tuple(CURVE_STEPPERS)
@@ -121,3 +121,19 @@ def test_lanes_take_events_of_every_kind():
     names = set(out["status_name"].tolist())
     assert {"exited", "lifted_off", "stuck"} <= names, names
     assert (out["n_reversals"] > 0).any()
+
+
+@pytest.mark.skipif(max_threads() < 2, reason="needs 2 threads")
+def test_simulate_runs_curve_scenes_on_the_threads_asked_for():
+    from rampwork.curve_scene import CurveScene
+
+    scene = CurveScene(curve=Curve.create("loop", radius=1.0), s0=0.0, u0=7.0,
+                       integrator=rw.Integrator("rk4", dt=1e-3))
+    sweep = rw.Sweep.grid(u0=np.linspace(2.0, 9.0, 40), mu=[0.0, 0.1, 0.3])
+    one = rw.simulate(scene, sweep, threads=1)
+    two = rw.simulate(scene, sweep, threads=2)
+    assert one.attrs["threads"] == 1 and two.attrs["threads"] == 2
+    for name in one.data_vars:
+        np.testing.assert_array_equal(one[name].values, two[name].values)
+    codes = set(np.unique(one.status.values).tolist())
+    assert {st.EXITED, st.LIFTED_OFF} <= codes, codes

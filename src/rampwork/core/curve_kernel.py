@@ -22,8 +22,8 @@ rest rule (§5) decides at a stop.
 
 This module holds a trajectory's scalar parts, on the lane state of
 ``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
-:func:`_start_lane`, :func:`_iterate` (one step, with its event resolved in
-full) and :func:`_finish_lane`.  The lane kernel (curve_lanes.py) takes
+:func:`_iterate` (one step, with its event resolved in full), the rest
+rule, the contact sign and the horizontal path.  The lane kernel (curve_lanes.py) takes
 clean steps for a block of lanes at once and hands every other step to
 :func:`_iterate`; run with its vector loop off, it is the scalar kernel the
 tests compare it with, bit for bit.
@@ -55,6 +55,8 @@ ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 # the pair's PI gains (control.PI_DOPRI5, PI_DOP853) and the exponent of a
 # rejected step's shrink factor (1 / order)
 PI_ALPHA = PI_BETA = REJECT_EXPONENT = 0.0
+# the step takes the frame at its start as its last argument (curve_steppers.py)
+STEP_TAKES_FRAME = True
 JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
 # family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
@@ -83,11 +85,13 @@ INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", 
 # lane; st.NOT_RUN while running); TRAJ: the input column; E0, KAPPA0: the
 # start's energy and curvature; BRANCH: the joint branch (family's p3) of the
 # last step; FLAG: 1.0 where the vector loop left the lane's step to the
-# scalar code; then the trajectory's inputs.
+# scalar code; then the trajectory's inputs; last SINNOW, KAPNOW, DPDSNOW:
+# with COSNOW the frame at P, as the last step's end evaluated it (the
+# next step's first stage, without joints: the same bits as evaluated anew).
 (P, U, D, SN, T, HN, EPREV, REJB, WORK, CURV, DISP, PATH, PATHX, DRAGW, NUMIN, XNOW,
  COSNOW, STEPS, NREJ, INROW, NREV, PLIFT, STATUS, TRAJ, E0, KAPPA0, BRANCH, FLAG,
- MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT) = range(39)
-N_FIELDS = 39
+ MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW) = range(42)
+N_FIELDS = 42
 #: lanes per block (the vector loop's width); results do not depend on it
 LANES = 64
 #: the empty lane's STATUS
@@ -98,22 +102,29 @@ MAX_EVENTS_IN_ROW = 100
 SMALLEST_STEP = 1e-14
 
 
-def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol):
-    """One step and whether it is clean (no event condition fired):
-    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos_phi1)``.  NaN fails every comparison,
+def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
+              frame):
+    """One step from p (``frame``: the curve's frame there) and whether it is
+    clean (no event condition fired):
+    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1)``, ``frame1`` the
+    frame at p1 ``(sin phi, cos phi, kappa, dp/ds)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
     exit (a first-order step from rest does not move p); passing it is.
     With ``JOINTS``, a step that crosses ``joint`` (a curvature jump; NaN:
     none) is not clean either: the step is cut to end just past it, so no
     step integrates across the jump and every method keeps its order."""
-    p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c,
-                                             rtol, atol)
-    _, cos1, kappa1, _ = curve_frame(p1, s0, s1, s2, s3, shared)
-    nu1 = normal_along_n(u1, cos1, kappa1, g)
+    if STEP_TAKES_FRAME:
+        p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
+                                                 c, rtol, atol, frame)
+    else:
+        p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
+                                                 c, rtol, atol)
+    frame1 = curve_frame(p1, s0, s1, s2, s3, shared)
+    nu1 = normal_along_n(u1, frame1[1], frame1[2], g)
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
     if JOINTS:
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
-    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1
+    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -179,65 +190,13 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-def _start_lane(lanes, i, inputs, j, shared, h, side):
-    """Load trajectory j (column j of ``inputs``) into lane i: its state at
-    t = 0 and, at rest, the rest rule's verdict (STATUS stays NOT_RUN while
-    it moves).  ``h``: the step (an adaptive pair's first)."""
-    p = inputs[I_P, j]
-    u = inputs[I_U, j]
-    mu_k = inputs[I_MUK, j]
-    mu_s = inputs[I_MUS, j]
-    g = inputs[I_G, j]
-    s0 = inputs[I_S0, j]
-    s1 = inputs[I_S1, j]
-    s2 = inputs[I_S2, j]
-    s3 = inputs[I_S3, j]
-    p_lo = inputs[I_LO, j]
-    p_hi = inputs[I_HI, j]
-    x_now, y0 = curve_point(p, s0, s1, s2, s3, shared)
-    status = st.NOT_RUN
-    p_lift = math.nan
-    _, cos0, kappa0, _ = curve_frame(p, s0, s1, s2, s3, shared)
-    nu = normal_along_n(u, cos0, kappa0, g)
-    d = 0.0
-    if u == 0.0:
-        d, status = rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared)
-    else:
-        d = 1.0 if u > 0.0 else -1.0
-        if ONE_SIDED and side * nu <= 0.0:
-            status = st.LIFTED_OFF
-    if status == st.LIFTED_OFF:
-        p_lift = p
-    if status == st.NOT_RUN and ((d > 0.0 and p >= p_hi) or (d < 0.0 and p <= p_lo)):
-        status = st.EXITED
-    for field in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG):
-        lanes[field * LANES + i] = 0.0
-    lanes[P * LANES + i] = p
-    lanes[U * LANES + i] = u
-    lanes[D * LANES + i] = d
-    lanes[SN * LANES + i] = contact_sign(nu, kappa0, side)
-    lanes[HN * LANES + i] = h
-    lanes[EPREV * LANES + i] = ERROR_FLOOR
-    lanes[NUMIN * LANES + i] = side * nu
-    lanes[XNOW * LANES + i] = x_now
-    lanes[COSNOW * LANES + i] = cos0
-    lanes[PLIFT * LANES + i] = p_lift
-    lanes[STATUS * LANES + i] = status
-    lanes[TRAJ * LANES + i] = j
-    lanes[E0 * LANES + i] = fma(g, y0, 0.5 * u * u)
-    lanes[KAPPA0 * LANES + i] = kappa0
-    lanes[BRANCH * LANES + i] = s3
-    lanes[MUK * LANES + i] = mu_k
-    lanes[MUS * LANES + i] = mu_s
-    lanes[G * LANES + i] = g
-    lanes[S0 * LANES + i] = s0
-    lanes[S1 * LANES + i] = s1
-    lanes[S2 * LANES + i] = s2
-    lanes[LO * LANES + i] = p_lo
-    lanes[HI * LANES + i] = p_hi
-    lanes[B * LANES + i] = inputs[I_B, j]
-    lanes[C * LANES + i] = inputs[I_C, j]
-    lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
+@jit
+def store_frame(lanes, i, frame):
+    """The frame at lane i's P (``(sin phi, cos phi, kappa, dp/ds)``) into its fields."""
+    lanes[SINNOW * LANES + i] = frame[0]
+    lanes[COSNOW * LANES + i] = frame[1]
+    lanes[KAPNOW * LANES + i] = frame[2]
+    lanes[DPDSNOW * LANES + i] = frame[3]
 
 
 @jit
@@ -298,8 +257,10 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
     if JOINTS:
         s3 = branch(p, d, joint)
         lanes[BRANCH * LANES + i] = s3
-    p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
-        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol)
+    frame = curve_frame(p, s0, s1, s2, s3, shared)
+    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
+        frame)
     if not clean:
         # the event: bisect on the step size to adjacent floats lo < hi,
         # lo clean, hi not, and take the step of size hi
@@ -310,14 +271,14 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
             if not (lo < mid < hi):
                 break
             if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
-                        joint, rtol, atol)[8]:
+                        joint, rtol, atol, frame)[8]:
                 lo = mid
             else:
                 hi = mid
         step_size = hi
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
             p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint,
-            rtol, atol)
+            rtol, atol, frame)
     if ADAPTIVE:
         if not (err <= 1.0):  # rejected (NaN included): shrink and try again
             lanes[NREJ * LANES + i] += 1.0
@@ -351,9 +312,9 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
     lanes[NUMIN * LANES + i] = min(lanes[NUMIN * LANES + i], side * nu1)
     # an exit step ends on the end (p1 passes it by the bisection's last float)
     dx_step, x_now = x_travelled(p, lanes[XNOW * LANES + i], lanes[COSNOW * LANES + i],
-                                 min(max(p1, p_lo), p_hi), cos1, s0, s1, s2, s3, shared)
+                                 min(max(p1, p_lo), p_hi), frame1[1], s0, s1, s2, s3, shared)
     lanes[XNOW * LANES + i] = x_now
-    lanes[COSNOW * LANES + i] = cos1
+    store_frame(lanes, i, frame1)
     lanes[PATHX * LANES + i] += dx_step
     lanes[U * LANES + i] = u1
     if clean:
@@ -386,54 +347,6 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
             lanes[SN * LANES + i] = contact_sign(g * cos_r, kappa_r, side)
         elif status == st.LIFTED_OFF:
             lanes[PLIFT * LANES + i] = p1
-
-
-def _finish_lane(lanes, i, inputs, shared, out, status):
-    """Write lane i's trajectory (finished) to its column of ``out`` and
-    ``status``; the lane becomes empty."""
-    j = int(lanes[TRAJ * LANES + i])
-    p = lanes[P * LANES + i]
-    u = lanes[U * LANES + i]
-    g = lanes[G * LANES + i]
-    s0 = lanes[S0 * LANES + i]
-    s1 = lanes[S1 * LANES + i]
-    s2 = lanes[S2 * LANES + i]
-    s3 = lanes[BRANCH * LANES + i]
-    work = lanes[WORK * LANES + i]
-    drag_work = lanes[DRAGW * LANES + i]
-    path = lanes[PATH * LANES + i]
-    p_lift = lanes[PLIFT * LANES + i]
-    energy_start = lanes[E0 * LANES + i]
-    m = inputs[I_M, j]
-    x_end, y_end = curve_point(p, s0, s1, s2, s3, shared)
-    energy_end = fma(g, y_end, 0.5 * u * u)
-    out[O_T, j] = lanes[T * LANES + i]
-    out[O_P, j] = p
-    out[O_U, j] = u
-    out[O_X, j] = x_end
-    out[O_Y, j] = y_end
-    out[O_W, j] = m * work
-    out[O_WE, j] = m * (energy_start - energy_end)
-    out[O_WD, j] = m * drag_work
-    out[O_BAL, j] = m * (work + drag_work - (energy_start - energy_end))
-    out[O_DISP, j] = lanes[DISP * LANES + i]
-    out[O_PATH, j] = path
-    out[O_XPATH, j] = lanes[PATHX * LANES + i]
-    out[O_KMEAN, j] = lanes[CURV * LANES + i] / path if path > 0.0 else lanes[KAPPA0 * LANES + i]
-    out[O_NUMIN, j] = m * lanes[NUMIN * LANES + i]
-    out[O_PLIFT, j] = p_lift
-    if p_lift == p_lift:
-        x_lift, y_lift = curve_point(p_lift, s0, s1, s2, s3, shared)
-        out[O_XLIFT, j] = x_lift
-        out[O_YLIFT, j] = y_lift
-    else:
-        out[O_XLIFT, j] = math.nan
-        out[O_YLIFT, j] = math.nan
-    out[O_NREV, j] = lanes[NREV * LANES + i]
-    out[O_STEPS, j] = lanes[STEPS * LANES + i]
-    out[O_REJECTED, j] = lanes[NREJ * LANES + i]
-    status[j] = int(lanes[STATUS * LANES + i])
-    lanes[STATUS * LANES + i] = EMPTY
 
 
 def empty_outputs(n: int) -> tuple[np.ndarray, np.ndarray]:

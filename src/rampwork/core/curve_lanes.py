@@ -37,18 +37,23 @@ import numpy as np
 from . import curve_kernel as ck
 from . import status as st
 from .control import ERROR_FLOOR, PI_DOP853, PI_DOPRI5
-from .curve_kernel import (B, BRANCH, C, COSNOW, CURV, D, DISP, DRAGW, EMPTY, EPREV, FLAG, G,
-                           HI, HN, INROW, JOINT, LANES, LO, MUK, N_FIELDS, NREJ, NUMIN, P, PATH,
-                           PATHX, REJB, S0, S1, S2, SMALLEST_STEP, SN, STATUS, STEPS, T, U, WORK,
-                           XNOW, branch)
-from .curve_steppers import CURVE_STEPPERS, _stage
-from .jit import jit, specialise
+from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
+    B, BRANCH, C, COSNOW, CURV, D, DISP, DPDSNOW, DRAGW, E0, EMPTY, EPREV, FLAG, G, HI, HN,
+    I_B, I_C, I_G, I_HI, I_JOINT, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U,
+    INROW, JOINT, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
+    O_DISP, O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U,
+    O_W, O_WD, O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1,
+    S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, store_frame)
+from .curve_steppers import CURVE_STEPPERS, _stage, _stage_from, normal_along_n
+from .jit import fma, jit, specialise
 from .threads import current_threads, run_items
 
 # bound per scene by build_curve_kernel (compile-time constants)
-curve_point = try_step = accepted_factor = rejected_factor = None
+curve_frame = curve_point = try_step = accepted_factor = rejected_factor = None
+rest_rule = contact_sign = None
 start_lane = iterate = finish_lane = vector_step = vector_pass = run_tile = None
 ADAPTIVE = JOINTS = DRAG = False
+ONE_SIDED = True
 VECTOR = True  # False: every step through curve_kernel._iterate (the scalar reference)
 #: vector steps between scalar passes: a lane whose step holds an event waits
 #: for the next pass, so fewer, costlier steps want more frequent passes
@@ -57,6 +62,116 @@ SUBSTEPS_ADAPTIVE = 4
 #: lanes per vector loop: a constant trip count, so that LLVM proves the
 #: fields' accesses disjoint (fields lie LANES apart) and vectorises
 BLOCK = 16
+
+
+def _start_lane(lanes, i, inputs, j, shared, h, side):
+    """Load trajectory j (column j of ``inputs``) into lane i: its state at
+    t = 0 and, at rest, the rest rule's verdict (STATUS stays NOT_RUN while
+    it moves).  ``h``: the step (an adaptive pair's first)."""
+    p = inputs[I_P, j]
+    u = inputs[I_U, j]
+    mu_k = inputs[I_MUK, j]
+    mu_s = inputs[I_MUS, j]
+    g = inputs[I_G, j]
+    s0 = inputs[I_S0, j]
+    s1 = inputs[I_S1, j]
+    s2 = inputs[I_S2, j]
+    s3 = inputs[I_S3, j]
+    p_lo = inputs[I_LO, j]
+    p_hi = inputs[I_HI, j]
+    x_now, y0 = curve_point(p, s0, s1, s2, s3, shared)
+    status = st.NOT_RUN
+    p_lift = math.nan
+    frame0 = curve_frame(p, s0, s1, s2, s3, shared)
+    _, cos0, kappa0, _ = frame0
+    nu = normal_along_n(u, cos0, kappa0, g)
+    d = 0.0
+    if u == 0.0:
+        d, status = rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared)
+    else:
+        d = 1.0 if u > 0.0 else -1.0
+        if ONE_SIDED and side * nu <= 0.0:
+            status = st.LIFTED_OFF
+    if status == st.LIFTED_OFF:
+        p_lift = p
+    if status == st.NOT_RUN and ((d > 0.0 and p >= p_hi) or (d < 0.0 and p <= p_lo)):
+        status = st.EXITED
+    for field in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG):
+        lanes[field * LANES + i] = 0.0
+    lanes[P * LANES + i] = p
+    lanes[U * LANES + i] = u
+    lanes[D * LANES + i] = d
+    lanes[SN * LANES + i] = contact_sign(nu, kappa0, side)
+    lanes[HN * LANES + i] = h
+    lanes[EPREV * LANES + i] = ERROR_FLOOR
+    lanes[NUMIN * LANES + i] = side * nu
+    lanes[XNOW * LANES + i] = x_now
+    store_frame(lanes, i, frame0)
+    lanes[PLIFT * LANES + i] = p_lift
+    lanes[STATUS * LANES + i] = status
+    lanes[TRAJ * LANES + i] = j
+    lanes[E0 * LANES + i] = fma(g, y0, 0.5 * u * u)
+    lanes[KAPPA0 * LANES + i] = kappa0
+    lanes[BRANCH * LANES + i] = s3
+    lanes[MUK * LANES + i] = mu_k
+    lanes[MUS * LANES + i] = mu_s
+    lanes[G * LANES + i] = g
+    lanes[S0 * LANES + i] = s0
+    lanes[S1 * LANES + i] = s1
+    lanes[S2 * LANES + i] = s2
+    lanes[LO * LANES + i] = p_lo
+    lanes[HI * LANES + i] = p_hi
+    lanes[B * LANES + i] = inputs[I_B, j]
+    lanes[C * LANES + i] = inputs[I_C, j]
+    lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
+
+
+def _finish_lane(lanes, i, inputs, shared, out, status):
+    """Write lane i's trajectory (finished) to its column of ``out`` and
+    ``status``; the lane becomes empty."""
+    j = int(lanes[TRAJ * LANES + i])
+    p = lanes[P * LANES + i]
+    u = lanes[U * LANES + i]
+    g = lanes[G * LANES + i]
+    s0 = lanes[S0 * LANES + i]
+    s1 = lanes[S1 * LANES + i]
+    s2 = lanes[S2 * LANES + i]
+    s3 = lanes[BRANCH * LANES + i]
+    work = lanes[WORK * LANES + i]
+    drag_work = lanes[DRAGW * LANES + i]
+    path = lanes[PATH * LANES + i]
+    p_lift = lanes[PLIFT * LANES + i]
+    energy_start = lanes[E0 * LANES + i]
+    m = inputs[I_M, j]
+    x_end, y_end = curve_point(p, s0, s1, s2, s3, shared)
+    energy_end = fma(g, y_end, 0.5 * u * u)
+    out[O_T, j] = lanes[T * LANES + i]
+    out[O_P, j] = p
+    out[O_U, j] = u
+    out[O_X, j] = x_end
+    out[O_Y, j] = y_end
+    out[O_W, j] = m * work
+    out[O_WE, j] = m * (energy_start - energy_end)
+    out[O_WD, j] = m * drag_work
+    out[O_BAL, j] = m * (work + drag_work - (energy_start - energy_end))
+    out[O_DISP, j] = lanes[DISP * LANES + i]
+    out[O_PATH, j] = path
+    out[O_XPATH, j] = lanes[PATHX * LANES + i]
+    out[O_KMEAN, j] = lanes[CURV * LANES + i] / path if path > 0.0 else lanes[KAPPA0 * LANES + i]
+    out[O_NUMIN, j] = m * lanes[NUMIN * LANES + i]
+    out[O_PLIFT, j] = p_lift
+    if p_lift == p_lift:
+        x_lift, y_lift = curve_point(p_lift, s0, s1, s2, s3, shared)
+        out[O_XLIFT, j] = x_lift
+        out[O_YLIFT, j] = y_lift
+    else:
+        out[O_XLIFT, j] = math.nan
+        out[O_YLIFT, j] = math.nan
+    out[O_NREV, j] = lanes[NREV * LANES + i]
+    out[O_STEPS, j] = lanes[STEPS * LANES + i]
+    out[O_REJECTED, j] = lanes[NREJ * LANES + i]
+    status[j] = int(lanes[STATUS * LANES + i])
+    lanes[STATUS * LANES + i] = EMPTY
 
 
 def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
@@ -86,15 +201,24 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
         s3_before = s3
         s3 = branch(p, d, joint)
         lanes[BRANCH * LANES + i] = s3 if free else s3_before
-    p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
-        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol)
+    sin_now = lanes[SINNOW * LANES + i]
+    cos_now = lanes[COSNOW * LANES + i]
+    kappa_now = lanes[KAPNOW * LANES + i]
+    dp_ds_now = lanes[DPDSNOW * LANES + i]
+    if JOINTS:  # the frame on the step's own branch, which the last step's end may not be
+        frame = curve_frame(p, s0, s1, s2, s3, shared)
+    else:
+        frame = (sin_now, cos_now, kappa_now, dp_ds_now)
+    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
+        frame)
+    sin1, cos1, kappa1, dp_ds1 = frame1
     # X at the step's end, as curve_kernel._x_travelled takes it (a NaN end,
     # never committed, is evaluated at p_lo: a family's point may loop on it)
     p_end = min(max(p1, p_lo), p_hi)
     p_end = p_end if p_end == p_end else p_lo
     x1, _ = curve_point(p_end, s0, s1, s2, s3, shared)
     x_now = lanes[XNOW * LANES + i]
-    cos_now = lanes[COSNOW * LANES + i]
     finite = (math.isfinite(p1) & math.isfinite(u1) & math.isfinite(dw) & (nu1 == nu1)
               & math.isfinite(dk))
     attempt = free & clean & (t < t_max)
@@ -136,7 +260,10 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
     path_x = lanes[PATHX * LANES + i]
     lanes[PATHX * LANES + i] = path_x + abs(x1 - x_now) if fast else path_x
     lanes[XNOW * LANES + i] = x1 if fast else x_now
+    lanes[SINNOW * LANES + i] = sin1 if fast else sin_now
     lanes[COSNOW * LANES + i] = cos1 if fast else cos_now
+    lanes[KAPNOW * LANES + i] = kappa1 if fast else kappa_now
+    lanes[DPDSNOW * LANES + i] = dp_ds1 if fast else dp_ds_now
 
 
 def _vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks):
@@ -263,15 +390,18 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
         constants.update(more)
         return specialise(template, f"{name}_{suffix}", dict(constants), **options)
 
-    built_stage = build(_stage, "stage")
+    code = step.__code__  # a step without the frame argument works too, one frame dearer
+    constants["STEP_TAKES_FRAME"] = "frame" in code.co_varnames[:code.co_argcount]
+    built_stage_from = build(_stage_from, "stage_from")
+    built_stage = build(_stage, "stage", stage_from=built_stage_from)
     constants["curve_step"] = build(step, "step", stage=built_stage)
     constants["try_step"] = build(ck._try_step, "try")
     for template, bound in ((ck._rest_rule, "rest_rule"), (ck._contact_sign, "contact_sign"),
                             (ck._x_travelled, "x_travelled"),
                             (ck._accepted_factor, "accepted_factor"),
                             (ck._rejected_factor, "rejected_factor"),
-                            (ck._start_lane, "start_lane"), (ck._iterate, "iterate"),
-                            (ck._finish_lane, "finish_lane"), (_vector_step, "vector_step"),
+                            (_start_lane, "start_lane"), (ck._iterate, "iterate"),
+                            (_finish_lane, "finish_lane"), (_vector_step, "vector_step"),
                             (_vector_pass, "vector_pass"), (_run_tile, "run_tile")):
         constants[bound] = build(template, bound)
     return CurveKernel(build(_run_tiles, "tiles"))
