@@ -1,14 +1,16 @@
 """The command line on curve scenes (docs/physics.md §5): ``run`` and ``check``
 of a scene file with a ``[curve]`` table.  A curve scene runs in memory in
-one piece (the curve kernel runs one trajectory at a time) and is written
-at once, atomically; chunking, resuming and Dask are for ramp scenes.
+one piece and is written at once, atomically; chunking, resuming and Dask
+are for ramp scenes.
 """
 
 from __future__ import annotations
 
 from . import io
 from .curve_scene import check, simulate_curve_scene
+from .core.threads import using_threads
 from .errors import ConfigError
+from .runner import thread_count
 from .terminal import check_lines, format_counts, format_seconds, si, status_counts, sweep_shape
 from .zarrstore import write_zarr
 
@@ -24,21 +26,20 @@ def _checked(path: str, scene, sweep):
 
 
 def run_curve(args, scene, sweep) -> int:
-    """``run`` on a curve scene: in memory (the curve kernel runs one
-    trajectory at a time), then written at once, atomically."""
+    """``run`` on a curve scene: in memory (in SIMD lanes over ``--threads``
+    threads), then written at once, atomically."""
     for given, name in ((args.resume, "--resume"), (args.chunk_size, "--chunk-size"),
                         (args.scheduler, "--scheduler")):
         if given:
             raise ConfigError(name, "not for curve scenes yet: they run in one piece, in memory")
-    if args.threads not in (None, 1):
-        raise ConfigError("--threads", "curve scenes run on one thread for now")
     sweep = _checked(args.scene, scene, sweep)
     zarr = io.output_format(args.output) == "zarr"
     io.check_writable(args.output, args.overwrite, store=zarr)
     if not args.quiet:
         print(f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}) on a "
               f"{scene.curve.family} curve, {scene.integrator.describe()}", flush=True)
-    dataset = simulate_curve_scene(scene, sweep)
+    with using_threads(thread_count(args.threads)):
+        dataset = simulate_curve_scene(scene, sweep)
     output = (write_zarr if zarr else io.write_netcdf)(dataset, args.output, overwrite=args.overwrite)
     if args.quiet:
         return EXIT_OK
