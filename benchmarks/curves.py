@@ -262,6 +262,7 @@ def measure(args) -> dict:
             per_round = [(pair["graph_steps"] / g) / (curve_steps / c)
                          for g, c in zip(graph_s, curve_s)]
             entry["curve"][threads] = curve_rate
+            entry.setdefault("curve_steps_per_s", curve_rate)  # at the first --threads count
             entry["graph"][threads] = {"steps_per_s": rate, "ratio_of_bests": rate / curve_rate,
                                        "ratio_median": statistics.median(per_round)}
         results[key] = entry
