@@ -18,10 +18,12 @@ second (accepted steps / kernel time, best of ``--repeat`` interleaved
 rounds; ``--cpu-time``: the process's CPU time of the call, steadier on a
 shared machine with 1 thread, but for y = f(x) the whole ``rw.simulate`` call
 against the curve kernel's call alone); the ratio is y = f(x) / curve, the median of
-the per-round ratios beside the ratio of the bests.  The curve kernel runs
-one trajectory at a time on one thread; the y = f(x) kernel is also timed on
-``--threads`` (default 1 and 2).  Compile times are taken apart, on the
-first call, in a fresh NUMBA_CACHE_DIR (a temporary folder, removed at the end).
+the per-round ratios beside the ratio of the bests.  Both kernels run in SIMD
+lanes and are timed on ``--threads`` (default 1 and 2); the curve kernel's
+scalar reference (``vector=False``: every step alone, the same results bit
+for bit) is timed on 1 thread beside them, for the lanes' speed-up.
+Compile times are taken apart, on the first call, in a fresh NUMBA_CACHE_DIR
+(a temporary folder, removed at the end).
 
 ``--baseline SRC`` also times the y = f(x) kernel of another source tree
 (e.g. a clean worktree of the commit before curves) against this tree's, each
@@ -72,7 +74,7 @@ def parse_args(argv=None):
     p.add_argument("--methods", default="euler,rk4,dopri5")
     p.add_argument("--cases", default=DEFAULT_CASES,
                    help="comma-separated graph:FAMILY or arc:circular_bowl (default %(default)s)")
-    p.add_argument("--threads", default="1,2", help="threads of the y = f(x) kernel (curves: 1)")
+    p.add_argument("--threads", default="1,2", help="threads of both kernels")
     p.add_argument("--repeat", type=int, default=3, help="interleaved rounds; best of them")
     p.add_argument("--cpu-time", action="store_true",
                    help="time by the process's CPU time (meaningful with 1 thread)")
@@ -115,7 +117,7 @@ def time_graph(scene, sweep, threads: int, cpu_time: bool):
     return int(ds.attrs["trajectory_steps"]), seconds, ds
 
 
-def curve_run(case: str, method: str, args, x0, v0, mu):
+def curve_run(case: str, method: str, args, x0, v0, mu, vector: bool = True):
     """The prepared curve run of ``case`` on the same starts."""
     import numpy as np
 
@@ -136,16 +138,18 @@ def curve_run(case: str, method: str, args, x0, v0, mu):
     else:
         raise SystemExit(f"unknown case {case!r}: graph:FAMILY or arc:circular_bowl")
     return prepare_curve_run(curve, s0=s0, u0=u0, mu_k=mu, g=G, method=method, dt=args.dt,
-                             t_max=args.t_max, rtol=args.rtol)
+                             t_max=args.t_max, rtol=args.rtol, vector=vector)
 
 
-def time_curve(run, cpu_time: bool):
-    """(steps, seconds, outputs) of one curve-kernel call."""
+def time_curve(run, cpu_time: bool, threads: int = 1):
+    """(steps, seconds, outputs) of one curve-kernel call on ``threads`` threads."""
     from rampwork.core import curve_kernel
+    from rampwork.core.threads import using_threads
 
     out, status = curve_kernel.empty_outputs(run.inputs.shape[1])
     started, cpu = time.perf_counter(), time.process_time()
-    run.kernel(run.inputs, run.shared, *run.arguments, out, status)
+    with using_threads(threads):
+        run.kernel(run.inputs, run.shared, *run.arguments, out, status)
     seconds = time.process_time() - cpu if cpu_time else time.perf_counter() - started
     result = {name: out[k] for k, name in enumerate(curve_kernel.OUTPUTS)}
     result["status"] = status
@@ -189,6 +193,8 @@ def measure_graph_only(args) -> dict:
 
 def measure(args) -> dict:
     """Every case and method, y = f(x) and curve interleaved round by round."""
+    import numpy as np
+
     import rampwork as rw
 
     x0, v0, mu = starts(args)
@@ -201,41 +207,62 @@ def measure(args) -> dict:
             scene = ramp_scene(family, method, args)
             graph_compile = rw.simulate(scene, rw.Sweep.cases(x0=[0.1], v0=[0.0], mu=[0.1]),
                                         kernel=C.KERNEL).attrs["compile_time_s"]
-            run = curve_run(case, method, args, x0, v0, mu)
-            started = time.perf_counter()
-            run.compile()
-            pairs[f"{method}/{case}"] = {"method": method, "case": case, "scene": scene,
-                                         "run": run, "graph_compile_s": graph_compile,
-                                         "curve_compile_s": time.perf_counter() - started,
-                                         "graph": {t: [] for t in thread_counts}, "curve": []}
+            compiled = {}
+            for vector in (True, False):
+                run = curve_run(case, method, args, x0, v0, mu, vector=vector)
+                started = time.perf_counter()
+                run.compile()
+                compiled[vector] = (run, time.perf_counter() - started)
+            pairs[f"{method}/{case}"] = {
+                "method": method, "case": case, "scene": scene, "run": compiled[True][0],
+                "scalar_run": compiled[False][0], "graph_compile_s": graph_compile,
+                "curve_compile_s": compiled[True][1], "scalar_compile_s": compiled[False][1],
+                "graph": {t: [] for t in thread_counts}, "curve": {t: [] for t in thread_counts},
+                "scalar": []}
     for round_ in range(args.repeat):
         for key, pair in pairs.items():
             # alternate which side goes first, so a slow spell does not favour one
-            order = ("graph", "curve") if round_ % 2 == 0 else ("curve", "graph")
+            order = ("graph", "curve", "scalar") if round_ % 2 == 0 else ("scalar", "curve", "graph")
             for side in order:
-                if side == "curve":
-                    steps, seconds, out = time_curve(pair["run"], args.cpu_time)
-                    pair["curve"].append(seconds)
-                    pair["curve_steps"], pair["curve_out"] = steps, out
-                else:
-                    for threads in thread_counts:
+                if side == "scalar":
+                    steps, seconds, out = time_curve(pair["scalar_run"], args.cpu_time)
+                    pair["scalar"].append(seconds)
+                    lanes = pair.get("curve_out", out)
+                    pair["scalar_identical"] = all(  # the same bits (NaN included)
+                        np.array_equal(np.asarray(out[k]).view(np.uint8),
+                                       np.asarray(lanes[k]).view(np.uint8)) for k in out)
+                    continue
+                for threads in thread_counts:
+                    if side == "curve":
+                        steps, seconds, out = time_curve(pair["run"], args.cpu_time, threads)
+                        pair["curve"][threads].append(seconds)
+                        pair["curve_steps"], pair["curve_out"] = steps, out
+                    else:
                         steps, seconds, ds = time_graph(pair["scene"], sweep, threads, args.cpu_time)
                         pair["graph"][threads].append(seconds)
                         pair["graph_steps"], pair["graph_ds"] = steps, ds
         print(f"  round {round_ + 1}/{args.repeat} done", flush=True)
     results = {}
     for key, pair in pairs.items():
-        curve_rate = pair["curve_steps"] / min(pair["curve"])
+        curve_steps = pair["curve_steps"]
         entry = {"method": pair["method"], "case": pair["case"],
                  "graph_compile_s": pair["graph_compile_s"],
                  "curve_compile_s": pair["curve_compile_s"],
-                 "graph_steps": pair["graph_steps"], "curve_steps": pair["curve_steps"],
-                 "curve_steps_per_s": curve_rate, "graph": {},
+                 "scalar_compile_s": pair["scalar_compile_s"],
+                 "graph_steps": pair["graph_steps"], "curve_steps": curve_steps,
+                 "scalar_steps_per_s": curve_steps / min(pair["scalar"]),
+                 "lanes_over_scalar": statistics.median(
+                     s / c for s, c in zip(pair["scalar"], pair["curve"][thread_counts[0]])),
+                 "scalar_identical": pair["scalar_identical"], "graph": {}, "curve": {},
                  "agreement": agreement(pair["graph_ds"], pair["curve_out"])}
-        for threads, seconds in pair["graph"].items():
-            rate = pair["graph_steps"] / min(seconds)
-            per_round = [(pair["graph_steps"] / g) / (pair["curve_steps"] / c)
-                         for g, c in zip(seconds, pair["curve"])]
+        for threads in thread_counts:
+            graph_s, curve_s = pair["graph"][threads], pair["curve"][threads]
+            rate = pair["graph_steps"] / min(graph_s)
+            curve_rate = curve_steps / min(curve_s)
+            per_round = [(pair["graph_steps"] / g) / (curve_steps / c)
+                         for g, c in zip(graph_s, curve_s)]
+            entry["curve"][threads] = curve_rate
+            entry.setdefault("curve_steps_per_s", curve_rate)  # at the first --threads count
             entry["graph"][threads] = {"steps_per_s": rate, "ratio_of_bests": rate / curve_rate,
                                        "ratio_median": statistics.median(per_round)}
         results[key] = entry
@@ -283,23 +310,27 @@ def tables(measured: dict, trees: dict | None, args) -> str:
     fmt = C.fmt_rate
     pairs = measured["pairs"]
     thread_counts = list(map(int, args.threads.split(",")))
-    headers = ["method", "case", "curve steps/s"]
+    headers = ["method", "case", "scalar curve steps/s 1t"]
     for t in thread_counts:
-        headers += [f"y=f(x) steps/s {t}t", f"ratio {t}t (median)"]
+        headers += [f"curve steps/s {t}t", f"y=f(x) steps/s {t}t", f"ratio {t}t (median)"]
+    headers += ["lanes / scalar 1t (median)", "bit-identical"]
     rows = []
     for p in pairs.values():
-        row = [p["method"], p["case"], fmt(p["curve_steps_per_s"])]
+        row = [p["method"], p["case"], fmt(p["scalar_steps_per_s"])]
         for t in thread_counts:
             g = p["graph"][t]
-            row += [fmt(g["steps_per_s"]), f"{g['ratio_of_bests']:.1f}x ({g['ratio_median']:.1f}x)"]
+            row += [fmt(p["curve"][t]), fmt(g["steps_per_s"]),
+                    f"{g['ratio_of_bests']:.2f}x ({g['ratio_median']:.2f}x)"]
+        row += [f"{p['lanes_over_scalar']:.2f}x", "yes" if p["scalar_identical"] else "NO"]
         rows.append(row)
     clock = "CPU time" if args.cpu_time else "kernel wall time"
     parts = [f"trajectory-steps/s, {args.n} starts, t_max {args.t_max} s, dt {args.dt:g} "
              f"(dopri5: rtol = atol = {args.rtol:g}), best of {args.repeat} interleaved rounds "
-             f"({clock}); ratio = y=f(x) / curve (target <= 1.5x)\n", C.text_table(headers, rows)]
+             f"({clock}); ratio = y=f(x) / curve (target <= 1.5x); the scalar curve kernel is "
+             f"the lanes' reference (vector=False)\n", C.text_table(headers, rows)]
     headers = ["method", "case", "y=f(x) steps", "curve steps", "status equal",
                "max |dx_end| m", "max |dW| J", "max |dt_end| s", "compile y=f(x) s",
-               "compile curve s"]
+               "compile curve s", "compile scalar curve s"]
     rows = []
     for p in pairs.values():
         a = p["agreement"]
@@ -307,7 +338,8 @@ def tables(measured: dict, trees: dict | None, args) -> str:
         rows.append([p["method"], p["case"], p["graph_steps"], p["curve_steps"],
                      f"{a['status_equal']:.4f} ({a['status_differ']} differ)",
                      gap(a["max_dx_end"]), gap(a["max_dW_friction"]), gap(a["max_dt_end"]),
-                     f"{p['graph_compile_s']:.2f}", f"{p['curve_compile_s']:.2f}"])
+                     f"{p['graph_compile_s']:.2f}", f"{p['curve_compile_s']:.2f}",
+                     f"{p['scalar_compile_s']:.2f}"])
     parts += ["\nagreement (over trajectories of equal status) and compile times "
               "(first call, fresh cache)\n", C.text_table(headers, rows)]
     if trees is not None:

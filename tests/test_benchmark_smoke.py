@@ -69,6 +69,9 @@ def test_curves_benchmark_pairs_the_kernels_on_the_same_ramp(tmp_path):
         rate = pair["graph"]["1"]
         assert rate["ratio_of_bests"] == rate["steps_per_s"] / pair["curve_steps_per_s"]
         assert pair["curve_compile_s"] > 0
+        # the lanes beside their scalar reference: the same bits, both timed
+        assert pair["scalar_identical"] is True
+        assert pair["scalar_steps_per_s"] > 0 and pair["lanes_over_scalar"] > 0
     best = saved["trees"]["best"]
     assert set(best) == {"this tree", "baseline"}
     assert set(best["baseline"]) == {"rk4/circular_bowl/1"}

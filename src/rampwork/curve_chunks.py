@@ -3,7 +3,7 @@
 so that :func:`rampwork.run_to_file` (netCDF or Zarr, resume, Dask) and
 ``rampwork run`` write a curve sweep chunk by chunk as they do a ramp's.
 
-Bit for bit the one-call run: the curve kernel runs each trajectory alone, and
+Bit for bit the one-call run: no curve trajectory depends on the batch it runs in, and
 every chunk runs on the kernel chosen for the whole sweep (friction, each
 drag term, joints: a chunk whose trajectories all have ``mu_k = 0`` would
 otherwise get a kernel without friction, whose adaptive error norm has one
@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 
 from . import runner, schema
+from .core.threads import using_threads
 from .curve_scene import (CASE_ATTRS, CurveScene, _drag_on, _layout, _prepare, attributes, check,
                           curve_variables)
 from .scene import Sweep
@@ -41,7 +42,8 @@ class _CurvePrepared:
         self.compile_seconds = time.perf_counter() - started
 
     def run_chunk(self, start: int, stop: int, threads: int) -> dict[str, np.ndarray]:
-        return self.run.compute(start, stop)
+        with using_threads(threads):
+            return self.run.compute(start, stop)
 
     def traces(self) -> tuple[xr.Dataset, float]:
         return xr.Dataset(), 0.0  # [record] is refused in curve scenes
@@ -64,8 +66,7 @@ class CurveSweepRun:
         """Every curve scene can be rebuilt from its text."""
 
     def thread_count(self, threads: int | None) -> int:
-        runner.thread_count(threads)  # checked; the curve kernel runs on one thread
-        return 1
+        return runner.thread_count(threads)
 
     def output_dtype(self, name: str) -> np.dtype:
         return schema.CURVE_OUTPUTS[name].np_dtype

@@ -1,8 +1,8 @@
 """The command line on curve scenes (docs/physics.md §5): what ``run`` and
 ``check`` of a scene file with a ``[curve]`` table add to a ramp scene's.
 A curve scene runs chunk by chunk to its output as a ramp scene does
-(:mod:`rampwork.curve_chunks`): ``--chunk-size``, ``--resume`` and
-``--scheduler`` work alike; it runs on one thread.
+(:mod:`rampwork.curve_chunks`): ``--chunk-size``, ``--resume``,
+``--scheduler`` and ``--threads`` work alike.
 """
 
 from __future__ import annotations
@@ -25,10 +25,7 @@ def _checked(path: str, scene, sweep):
 def curve_heading(args, scene, sweep) -> str:
     """Every check of ``run`` on a curve scene (errors name the file), and the
     run's first line; the run itself is a ramp scene's (``cli.cmd_run``:
-    chunks, ``--resume``, ``--scheduler``), on one thread."""
-    if args.threads not in (None, 1):
-        raise ConfigError("--threads", "curve scenes run on one thread for now (the curve kernel "
-                          "runs one trajectory at a time; --scheduler runs chunks side by side)")
+    chunks, ``--resume``, ``--scheduler``, ``--threads``)."""
     sweep = _checked(args.scene, scene, sweep)
     return (f"{scene.title}: {sweep.size:,} trajectories ({sweep_shape(sweep)}) on a "
             f"{scene.curve.family} curve, {scene.integrator.describe()}")

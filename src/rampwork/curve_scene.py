@@ -11,8 +11,9 @@ CF status flags, history and the scene file that reproduces it::
     >>> scene = CurveScene(curve=Curve.create("loop", radius=1.0), s0=0.0, u0=7.5)
     >>> ds = rw.simulate(scene, rw.Sweep.grid(radius=[0.8, 1.0, 1.2], mu=[0.0, 0.1]))
 
-The curve kernel runs each trajectory alone (one thread), so results do not
-depend on the sweep they are part of.  Everything is checked before any work.
+The curve kernel runs trajectories in SIMD lanes over threads
+(core/curve_lanes.py), each with its own operations, so results do not
+depend on the sweep they are part of nor on the thread count.  Everything is checked before any work.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import xarray as xr
 from . import schema, validate
 from .curves import Curve, FAMILIES as CURVE_FAMILIES, prepare_curve_run
 from .core.curve_kernel import CURVE_STEPPERS, OUTPUTS as KERNEL_OUTPUTS
+from .core.threads import current_threads
 from .errors import ConfigError
 from .scene import CONTACTS, Drag, Friction, Integrator, Sweep
 
@@ -180,7 +182,7 @@ def simulate_curve_scene(scene: CurveScene, sweep: Sweep | None = None) -> xr.Da
             for name, array in variables.items()}
     dataset = xr.Dataset(data, coords=coords)
     dataset.attrs.update(attributes(scene, sweep, compile_seconds, run_seconds,
-                                    int(variables["steps"].sum())))
+                                    int(variables["steps"].sum()), threads=current_threads()))
     return dataset
 
 
@@ -237,8 +239,7 @@ def attributes(scene: CurveScene, sweep: Sweep, compile_seconds: float, run_seco
                if _drag_on(scene, sweep) else {}),
             "sweep_kind": sweep.kind,
             "kernel_closed_form": 0,
-            "kernel_effects": f"curve kernel ({curve.family}, {scene.contact}; one trajectory "
-                              "at a time)",
+            "kernel_effects": f"curve kernel ({curve.family}, {scene.contact}; SIMD lanes)",
             "kernel_tier": "curve",
             "n_trajectories": sweep.size,
             "trajectory_steps": steps,

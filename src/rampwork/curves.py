@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import validate
-from .core import curve_kernel, curves as core_curves
+from .core import curve_kernel, curve_lanes, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
 from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
@@ -164,14 +164,15 @@ _KERNELS: dict = {}
 
 
 def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, friction: bool,
-                     drag_linear: bool, drag_quadratic: bool, joints: bool):
-    """The compiled batch function for these choices (built once per process)."""
-    key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic, joints)
+                     drag_linear: bool, drag_quadratic: bool, joints: bool, vector: bool = True):
+    """The compiled lane kernel for these choices (built once per process);
+    ``vector=False``: the scalar reference (curve_lanes.build_curve_kernel)."""
+    key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic, joints, vector)
     if key not in _KERNELS or not spec.cacheable:
-        kernel = curve_kernel.build_curve_kernel(
+        kernel = curve_lanes.build_curve_kernel(
             spec.key, spec.frame, spec.point, method, one_sided=one_sided, friction=friction,
             drag_linear=drag_linear, drag_quadratic=drag_quadratic, joints=joints,
-            cache=spec.cacheable)
+            cache=spec.cacheable, vector=vector)
         if not spec.cacheable:
             return kernel
         _KERNELS[key] = kernel
@@ -236,9 +237,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
                       method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
                       rtol: float = 1e-6, atol: float | None = None,
                       contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
-                      **shape) -> CurveRun:
+                      vector: bool = True, **shape) -> CurveRun:
     """Every check of :func:`simulate_curve` (same arguments), before any
-    work: the :class:`CurveRun` to compile and run."""
+    work: the :class:`CurveRun` to compile and run.  ``vector=False``: the
+    scalar reference kernel (every step alone; the same results, bit for bit)."""
     if not isinstance(curve, Curve):
         raise ConfigError("curve", f"expected a rampwork.curves.Curve, got {type(curve).__name__}")
     if method not in curve_kernel.CURVE_STEPPERS:
@@ -315,5 +317,5 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
                               friction=bool((flat["mu_k"] > 0).any()),
                               drag_linear=bool((flat["drag_linear"] > 0).any()),
                               drag_quadratic=bool((flat["drag_quadratic"] > 0).any()),
-                              joints=joints)
+                              joints=joints, vector=vector)
     return CurveRun(kernel, inputs, shared, (dt, t_max, SIDES[curve.side], rtol, atol), shape_out)

@@ -36,8 +36,9 @@ import math
 import numpy as np
 import xarray as xr
 
-from . import schema
+from . import schema, validate
 from .core import status as st
+from .core.threads import max_threads, using_threads
 from .curve_families import _END_WEIGHTS, _NODES, contract, convex_cusp_end
 from .curve_scene import FIRST_STEP, CurveScene
 from .curves import Curve, prepare_curve_run
@@ -142,10 +143,13 @@ class CuspCurve:
         (at rest, or ``scene.u0`` along the curve) towards B, in one
         curve-kernel call with ``scene``'s physics and integrator (its curve
         is not used).  ``dopri5`` at a tight ``rtol`` (1e-12) resolves the
-        0.005 % differences of the frictional brachistochrone."""
+        0.005 % differences of the frictional brachistochrone.  ``threads``:
+        the curve kernel's threads (None: all)."""
         if not isinstance(scene, CurveScene):
             raise ConfigError("scene", f"a curve shape runs in a rampwork.curve_scene.CurveScene, "
                               f"got {type(scene).__name__}")
+        threads = (max_threads() if threads is None
+                   else validate.integer("threads", threads, 1, max_threads()))
         c = self._population(population)
         shapes = self.curves(c)
         n = c.shape[0]
@@ -160,7 +164,8 @@ class CuspCurve:
             contact=scene.contact, drag_linear=scene.drag.linear,
             drag_quadratic=scene.drag.quadratic, row=np.arange(n, dtype=np.float64),
             end_angle=shapes["end_angle"], **adaptive)
-        raw = {name: np.reshape(values, (n,)) for name, values in run.run().items()}  # (n,) for n = 1 too
+        with using_threads(threads):
+            raw = {name: np.reshape(values, (n,)) for name, values in run.run().items()}  # (n,) for n = 1
         p_end = 1.0 + np.sin(shapes["end_angle"])
         status = raw["status"].astype(np.int8)
         arrived = shapes["through_b"] & (status == st.EXITED) & (raw["p_end"] == p_end)

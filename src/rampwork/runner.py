@@ -280,16 +280,16 @@ def simulate(scene: Scene, sweep: Sweep | None = None, *, threads: int | None = 
     an integrator of its own gets a one-time :class:`~rampwork.errors.ClosedFormNotice`.
 
     A :class:`~rampwork.curve_scene.CurveScene` (a planar curve, docs/physics.md §5)
-    runs on the curve kernel, one trajectory at a time (``threads`` and
-    ``kernel`` checked, not used), into the same kind of dataset with the
+    runs on the curve kernel, in SIMD lanes over ``threads`` threads
+    (``kernel`` checked, not used), into the same kind of dataset with the
     curve's outputs (``schema.CURVE_OUTPUTS``).
     """
     from .curve_scene import CurveScene, simulate_curve_scene
 
     if isinstance(scene, CurveScene):
         kernels.requested_tier(kernel)
-        thread_count(threads)
-        dataset = simulate_curve_scene(scene, sweep)
+        with using_threads(thread_count(threads)):
+            dataset = simulate_curve_scene(scene, sweep)
         if progress is not None:
             progress(dataset.attrs["n_trajectories"], dataset.attrs["n_trajectories"])
         return dataset

@@ -408,8 +408,8 @@ def run_to_file(scene: Scene, sweep: Sweep | None, path: str | os.PathLike, *,
     ``.nc4``, ``.netcdf`` and ``.cdf``, and any other is refused.
 
     ``scene``: a ramp scene or a curve scene
-    (:class:`~rampwork.curve_scene.CurveScene`, whose chunks run one
-    trajectory at a time on one thread, or on Dask workers).
+    (:class:`~rampwork.curve_scene.CurveScene`, whose chunks run in the
+    curve kernel's SIMD lanes over the threads, or on Dask workers).
     ``chunk_size``: trajectories per chunk at most (default
     ``runner.CHUNK_SIZE``, ``curve_chunks.CURVE_CHUNK_SIZE`` for a curve
     scene); a grid's chunk is a block of its arrays, whole

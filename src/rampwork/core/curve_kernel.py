@@ -20,12 +20,20 @@ method, to rounding: the largest clean step size and the smallest that is
 not are adjacent floats, and the step of the latter is committed.  Then the
 rest rule (§5) decides at a stop.
 
+This module holds a trajectory's scalar parts, on the lane state of
+``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
+:func:`_iterate` (one step, with its event resolved in full), the rest
+rule, the contact sign and the horizontal path.  The lane kernel (curve_lanes.py) takes
+clean steps for a block of lanes at once and hands every other step to
+:func:`_iterate`; run with its vector loop off, it is the scalar kernel the
+tests compare it with, bit for bit.
+
 The functions here are templates: ``curve_frame``, ``curve_point``,
 ``curve_step`` and the helper names are globals bound per scene by
-:func:`build_curve_kernel` through ``jit.specialise``, with the switches
-``ONE_SIDED``, ``FRICTION`` and ``DRAG*``: a scene compiles only the effects
-it uses.  Each trajectory runs alone, with no data-dependent choice shared
-between trajectories, so results do not depend on the batch it is run in.
+``curve_lanes.build_curve_kernel`` through ``jit.specialise``, with the
+switches ``ONE_SIDED``, ``FRICTION`` and ``DRAG*``: a scene compiles only
+the effects it uses.  No data-dependent choice is shared between
+trajectories, so results do not depend on the batch, lane or thread.
 """
 
 from __future__ import annotations
@@ -35,15 +43,20 @@ import math
 import numpy as np
 
 from . import status as st
-from .control import ERROR_FLOOR, FACTOR_MAX, FACTOR_MIN, SAFETY
-from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, normal_along_n
-from .jit import fma, specialise
+from .control import (ERROR_FLOOR, ERROR_TINY, FACTOR_MAX, FACTOR_MIN, SAFETY, exp2_approx,
+                      log2_approx)
+from .curve_steppers import CURVE_STEPPERS, normal_along_n  # noqa: F401 (CURVE_STEPPERS: public)
+from .jit import fma, jit
 
-# bound per scene by build_curve_kernel (compile-time constants)
-curve_frame = curve_point = curve_step = try_step = rest_rule = trajectory = None
-contact_sign = x_travelled = None
+# bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
+curve_frame = curve_point = curve_step = try_step = rest_rule = None
+contact_sign = x_travelled = accepted_factor = rejected_factor = None
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
-PI_ALPHA = PI_BETA = SHRINK = 0.0  # the pair's step-size control (CURVE_STEPPERS)
+# the pair's PI gains (control.PI_DOPRI5, PI_DOP853) and the exponent of a
+# rejected step's shrink factor (1 / order)
+PI_ALPHA = PI_BETA = REJECT_EXPONENT = 0.0
+# the step takes the frame at its start as its last argument (curve_steppers.py)
+STEP_TAKES_FRAME = True
 JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
 # family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
@@ -62,28 +75,56 @@ INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", 
           "drag_b", "drag_c", "p_joint")
 (I_P, I_U, I_MUK, I_MUS, I_G, I_M, I_S0, I_S1, I_S2, I_S3, I_LO, I_HI, I_B, I_C,
  I_JOINT) = range(len(INPUTS))
+# --- a trajectory's state: field F of lane i at lanes[F * LANES + i] (curve_lanes.py) ---
+# P, U: position parameter and signed speed; D, SN: direction and contact sign
+# of the mode; T, HN: time and the next step size; EPREV, REJB: the PI
+# controller's last accepted error and whether the last attempt was
+# rejected; the integrals per unit mass WORK, CURV, DISP, PATH, PATHX,
+# DRAGW, and NUMIN (side nu, smallest); XNOW, COSNOW: X and cos phi at P;
+# STEPS, NREJ, INROW (events in a row), NREV; PLIFT; STATUS (-1.0: an empty
+# lane; st.NOT_RUN while running); TRAJ: the input column; E0, KAPPA0: the
+# start's energy and curvature; BRANCH: the joint branch (family's p3) of the
+# last step; FLAG: 1.0 where the vector loop left the lane's step to the
+# scalar code; then the trajectory's inputs; last SINNOW, KAPNOW, DPDSNOW:
+# with COSNOW the frame at P, as the last step's end evaluated it (the
+# next step's first stage, without joints: the same bits as evaluated anew).
+(P, U, D, SN, T, HN, EPREV, REJB, WORK, CURV, DISP, PATH, PATHX, DRAGW, NUMIN, XNOW,
+ COSNOW, STEPS, NREJ, INROW, NREV, PLIFT, STATUS, TRAJ, E0, KAPPA0, BRANCH, FLAG,
+ MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW) = range(42)
+N_FIELDS = 42
+#: lanes per block (the vector loop's width); results do not depend on it
+LANES = 64
+#: the empty lane's STATUS
+EMPTY = -1.0
 #: events in a row without a full step between them before a trajectory is declared diverged
 MAX_EVENTS_IN_ROW = 100
 #: an adaptive step that shrinks below this fraction of the time reached is a divergence
 SMALLEST_STEP = 1e-14
 
 
-def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol):
-    """One step and whether it is clean (no event condition fired):
-    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos_phi1)``.  NaN fails every comparison,
+def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
+              frame):
+    """One step from p (``frame``: the curve's frame there) and whether it is
+    clean (no event condition fired):
+    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1)``, ``frame1`` the
+    frame at p1 ``(sin phi, cos phi, kappa, dp/ds)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
     exit (a first-order step from rest does not move p); passing it is.
     With ``JOINTS``, a step that crosses ``joint`` (a curvature jump; NaN:
     none) is not clean either: the step is cut to end just past it, so no
     step integrates across the jump and every method keeps its order."""
-    p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c,
-                                             rtol, atol)
-    _, cos1, kappa1, _ = curve_frame(p1, s0, s1, s2, s3, shared)
-    nu1 = normal_along_n(u1, cos1, kappa1, g)
+    if STEP_TAKES_FRAME:
+        p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
+                                                 c, rtol, atol, frame)
+    else:
+        p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
+                                                 c, rtol, atol)
+    frame1 = curve_frame(p1, s0, s1, s2, s3, shared)
+    nu1 = normal_along_n(u1, frame1[1], frame1[2], g)
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
     if JOINTS:
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
-    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1
+    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -149,236 +190,163 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-def _trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out):
-    """One trajectory from column j of ``inputs``; writes column j of ``out``
-    and returns its status.  ``h``: the step (an adaptive pair's first).
+@jit
+def store_frame(lanes, i, frame):
+    """The frame at lane i's P (``(sin phi, cos phi, kappa, dp/ds)``) into its fields."""
+    lanes[SINNOW * LANES + i] = frame[0]
+    lanes[COSNOW * LANES + i] = frame[1]
+    lanes[KAPNOW * LANES + i] = frame[2]
+    lanes[DPDSNOW * LANES + i] = frame[3]
+
+
+@jit
+def branch(p, d, joint):
+    """JOINTS: the piece a step from p in direction d starts on, or moves
+    into from the joint (the family's p3; 0.0 where there is no joint)."""
+    s3 = d if p == joint else (1.0 if p > joint else -1.0)
+    return 0.0 if joint != joint else s3
+
+
+def _accepted_factor(err, error_previous, rejected_before):
+    """The next step's factor after an accepted step (the PI controller of
+    control.py, with its vectorisable log2 / exp2: no pow, so the lane loop
+    of curve_lanes.py vectorises)."""
+    factor = SAFETY * exp2_approx(PI_BETA * log2_approx(error_previous)
+                                  - PI_ALPHA * log2_approx(max(err, ERROR_TINY)))
+    return min(max(factor, FACTOR_MIN), 1.0 if rejected_before else FACTOR_MAX)
+
+
+def _rejected_factor(err):
+    """The factor that shrinks a rejected step (NaN: the smallest)."""
+    if err == err:
+        return max(FACTOR_MIN, SAFETY * exp2_approx(-REJECT_EXPONENT * log2_approx(err)))
+    return FACTOR_MIN
+
+
+def _iterate(lanes, i, shared, t_max, side, rtol, atol):
+    """One pass of lane i's loop, in full: an attempted step with its event
+    located and resolved, or the verdict (timeout, divergence).  The vector
+    loop (curve_lanes.py) does the same for a clean step with selects and
+    leaves every other step to this.
 
     An adaptive step is accepted where its error norm is <= 1, with the ramp
     kernel's PI controller (control.py); a step with an event is judged at
     the event, after it is located (its error is that of the shorter step)."""
-    p = inputs[I_P, j]
-    u = inputs[I_U, j]
-    mu_k = inputs[I_MUK, j]
-    mu_s = inputs[I_MUS, j]
-    g = inputs[I_G, j]
-    s0 = inputs[I_S0, j]
-    s1 = inputs[I_S1, j]
-    s2 = inputs[I_S2, j]
-    s3 = inputs[I_S3, j]
-    p_lo = inputs[I_LO, j]
-    p_hi = inputs[I_HI, j]
-    b = inputs[I_B, j]
-    c = inputs[I_C, j]
-    joint = inputs[I_JOINT, j]
-    x_now, y0 = curve_point(p, s0, s1, s2, s3, shared)
-    energy_start = fma(g, y0, 0.5 * u * u)
-    t = 0.0
-    work = curvature = displacement = path = path_x = drag_work = 0.0
-    reversals = 0
-    steps = 0
-    rejected = 0
-    in_row = 0
-    h_next = h
-    error_previous = ERROR_FLOOR
-    rejected_before = False
-    status = st.NOT_RUN
-    p_lift = math.nan
-    sin0, cos0, kappa0, _ = curve_frame(p, s0, s1, s2, s3, shared)
-    cos_now = cos0
-    nu = normal_along_n(u, cos0, kappa0, g)
-    nu_min = side * nu
-    d = 0.0
-    if u == 0.0:
-        d, status = rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared)
-    else:
-        d = 1.0 if u > 0.0 else -1.0
-        if ONE_SIDED and side * nu <= 0.0:
-            status = st.LIFTED_OFF
-    if status == st.LIFTED_OFF:
-        p_lift = p
-    sn = contact_sign(nu, kappa0, side)
-    if status == st.NOT_RUN and ((d > 0.0 and p >= p_hi) or (d < 0.0 and p <= p_lo)):
-        status = st.EXITED
-    while status == st.NOT_RUN:
-        if t >= t_max:
-            status = st.TIMEOUT
-            break
-        step_size = h_next if t + h_next <= t_max else t_max - t
-        q = d * mu_k * sn
-        if JOINTS:  # the piece the step starts on, or moves into from the joint
-            s3 = d if p == joint else (1.0 if p > joint else -1.0)
-            if joint != joint:
-                s3 = 0.0
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
-            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
-            atol)
-        if not clean:
-            # the event: bisect on the step size to adjacent floats lo < hi,
-            # lo clean, hi not, and take the step of size hi
-            lo = 0.0
-            hi = step_size
-            while True:
-                mid = 0.5 * (lo + hi)
-                if not (lo < mid < hi):
-                    break
-                if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
-                            joint, rtol, atol)[8]:
-                    lo = mid
-                else:
-                    hi = mid
-            step_size = hi
-            p1, u1, dw, dk, dx, dwd, err, nu1, clean, cos1 = try_step(
-                p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
-            atol)
-        if ADAPTIVE:
-            if not (err <= 1.0):  # rejected (NaN included): shrink and try again
-                rejected += 1
-                factor = FACTOR_MIN
-                if err == err:
-                    factor = max(FACTOR_MIN, SAFETY * err ** -SHRINK)
-                h_next = step_size * factor
-                rejected_before = True
-                if not (h_next > SMALLEST_STEP * max(t, 1.0)):
-                    status = st.DIVERGED
-                    break
-                continue
-            if clean:  # an event step's size says nothing of the next one's
-                factor = SAFETY * max(err, 1e-30) ** -PI_ALPHA * error_previous ** PI_BETA
-                factor = min(max(factor, FACTOR_MIN), 1.0 if rejected_before else FACTOR_MAX)
-                h_next = step_size * factor
-                error_previous = max(err, ERROR_FLOOR)
-            rejected_before = False
-        if clean:
-            in_row = 0
-        else:
-            in_row += 1
-        # nu may be +-inf at a cusp (infinite curvature, frictionless): not NaN
-        finite = (math.isfinite(p1) and math.isfinite(u1) and math.isfinite(dw)
-                  and nu1 == nu1 and math.isfinite(dk))
-        if not finite or in_row > MAX_EVENTS_IN_ROW:
-            status = st.DIVERGED
-            break
-        t += step_size
-        steps += 1
-        work += dw
-        curvature += dk
-        displacement += dx
-        path += d * dx
-        if DRAG:
-            drag_work += dwd
-        nu_min = min(nu_min, side * nu1)
-        # an exit step ends on the end (p1 passes it by the bisection's last float)
-        dx_step, x_now = x_travelled(p, x_now, cos_now, min(max(p1, p_lo), p_hi), cos1, s0, s1,
-                                     s2, s3, shared)
-        cos_now = cos1
-        path_x += dx_step
-        if clean:
-            p = p1
-            u = u1
-            continue
-        if not (p1 <= p_hi):  # exits first: the end is where the trajectory ends
-            p = p_hi
-            u = u1
-            status = st.EXITED
-            break
-        if not (p1 >= p_lo):
-            p = p_lo
-            u = u1
-            status = st.EXITED
-            break
-        p = p1
-        u = u1
-        if not (sn * nu1 > 0.0):
-            if ONE_SIDED:
-                p_lift = p
-                status = st.LIFTED_OFF
+    p = lanes[P * LANES + i]
+    u = lanes[U * LANES + i]
+    d = lanes[D * LANES + i]
+    sn = lanes[SN * LANES + i]
+    t = lanes[T * LANES + i]
+    mu_k = lanes[MUK * LANES + i]
+    g = lanes[G * LANES + i]
+    s0 = lanes[S0 * LANES + i]
+    s1 = lanes[S1 * LANES + i]
+    s2 = lanes[S2 * LANES + i]
+    s3 = lanes[BRANCH * LANES + i]
+    p_lo = lanes[LO * LANES + i]
+    p_hi = lanes[HI * LANES + i]
+    b = lanes[B * LANES + i]
+    c = lanes[C * LANES + i]
+    joint = lanes[JOINT * LANES + i]
+    h_next = lanes[HN * LANES + i]
+    if t >= t_max:
+        lanes[STATUS * LANES + i] = st.TIMEOUT
+        return
+    step_size = h_next if t + h_next <= t_max else t_max - t
+    q = d * mu_k * sn
+    if JOINTS:
+        s3 = branch(p, d, joint)
+        lanes[BRANCH * LANES + i] = s3
+    frame = curve_frame(p, s0, s1, s2, s3, shared)
+    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
+        frame)
+    if not clean:
+        # the event: bisect on the step size to adjacent floats lo < hi,
+        # lo clean, hi not, and take the step of size hi
+        lo = 0.0
+        hi = step_size
+        while True:
+            mid = 0.5 * (lo + hi)
+            if not (lo < mid < hi):
                 break
-            sn = -sn
-        if not (d * u1 > 0.0):
-            u = 0.0
-            d, status = rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared)
-            if status == st.NOT_RUN:
-                reversals += 1
-                _, cos_r, kappa_r, _ = curve_frame(p, s0, s1, s2, s3, shared)
-                sn = contact_sign(g * cos_r, kappa_r, side)
-            elif status == st.LIFTED_OFF:
-                p_lift = p
-    m = inputs[I_M, j]
-    x_end, y_end = curve_point(p, s0, s1, s2, s3, shared)
-    energy_end = fma(g, y_end, 0.5 * u * u)
-    out[O_T, j] = t
-    out[O_P, j] = p
-    out[O_U, j] = u
-    out[O_X, j] = x_end
-    out[O_Y, j] = y_end
-    out[O_W, j] = m * work
-    out[O_WE, j] = m * (energy_start - energy_end)
-    out[O_WD, j] = m * drag_work
-    out[O_BAL, j] = m * (work + drag_work - (energy_start - energy_end))
-    out[O_DISP, j] = displacement
-    out[O_PATH, j] = path
-    out[O_XPATH, j] = path_x
-    out[O_KMEAN, j] = curvature / path if path > 0.0 else kappa0
-    out[O_NUMIN, j] = m * nu_min
-    out[O_PLIFT, j] = p_lift
-    if p_lift == p_lift:
-        x_lift, y_lift = curve_point(p_lift, s0, s1, s2, s3, shared)
-        out[O_XLIFT, j] = x_lift
-        out[O_YLIFT, j] = y_lift
-    else:
-        out[O_XLIFT, j] = math.nan
-        out[O_YLIFT, j] = math.nan
-    out[O_NREV, j] = reversals
-    out[O_STEPS, j] = steps
-    out[O_REJECTED, j] = rejected
-    return status
-
-
-def _batch(inputs, shared, h, t_max, side, rtol, atol, out, status):
-    """Every column of ``inputs`` (rows :data:`INPUTS`) into ``out`` (rows
-    :data:`OUTPUTS`) and ``status``."""
-    for j in range(inputs.shape[1]):
-        status[j] = trajectory(inputs, j, shared, h, t_max, side, rtol, atol, out)
-
-
-def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
-                       friction: bool = True, drag_linear: bool = False,
-                       drag_quadratic: bool = False, joints: bool = False, cache: bool = True):
-    """The batch function ``(inputs, shared, h, t_max, side, rtol, atol,
-    out, status)`` of one curve family (``key`` names it uniquely;
-    ``frame``, ``point`` its jitted functions) and ``method``, compiled with
-    only the effects asked for."""
-    if method not in CURVE_STEPPERS:
-        raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
-    flags = "".join(suffix for on, suffix in (
-        (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
-        (drag_quadratic, "_dragc"), (joints, "_joints")) if on)
-    name = f"curve_{key}_{method}{flags}"
-    _, _, adaptive, control = CURVE_STEPPERS[method]
-    alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
-    constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": adaptive, "PI_ALPHA": alpha, "PI_BETA": beta, "SHRINK": shrink,
-                 "JOINTS": joints,
-                 "FRICTION": friction, "DRAG_LINEAR": drag_linear,
-                 "DRAG_QUADRATIC": drag_quadratic, "DRAG": drag_linear or drag_quadratic}
-    options = {} if cache else {"cache": False}
-
-    def build(template, suffix, **more):
-        constants.update(more)
-        return specialise(template, f"{name}_{suffix}", dict(constants), **options)
-
-    built_stage = build(_stage, "stage")
-    more = {"stage": built_stage}
-    if method == "dop853":  # its stages are a template of their own (they call `stage`)
-        more["stage_rates"] = build(_dop853_stages, "rates", stage=built_stage)
-    built_step = build(CURVE_STEPPERS[method][0], "step", **more)
-    built_try = build(_try_step, "try", curve_step=built_step)
-    built_rest = build(_rest_rule, "rest")
-    built_sign = build(_contact_sign, "sign")
-    built_x = build(_x_travelled, "xpath")
-    built_trajectory = build(_trajectory, "trajectory", try_step=built_try, rest_rule=built_rest,
-                             contact_sign=built_sign, x_travelled=built_x)
-    return build(_batch, "batch", trajectory=built_trajectory)
+            if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
+                        joint, rtol, atol, frame)[8]:
+                lo = mid
+            else:
+                hi = mid
+        step_size = hi
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint,
+            rtol, atol, frame)
+    if ADAPTIVE:
+        if not (err <= 1.0):  # rejected (NaN included): shrink and try again
+            lanes[NREJ * LANES + i] += 1.0
+            h_next = step_size * rejected_factor(err)
+            lanes[HN * LANES + i] = h_next
+            lanes[REJB * LANES + i] = 1.0
+            if not (h_next > SMALLEST_STEP * max(t, 1.0)):
+                lanes[STATUS * LANES + i] = st.DIVERGED
+            return
+        if clean:  # an event step's size says nothing of the next one's
+            lanes[HN * LANES + i] = step_size * accepted_factor(
+                err, lanes[EPREV * LANES + i], lanes[REJB * LANES + i] != 0.0)
+            lanes[EPREV * LANES + i] = max(err, ERROR_FLOOR)
+        lanes[REJB * LANES + i] = 0.0
+    in_row = 0.0 if clean else lanes[INROW * LANES + i] + 1.0
+    lanes[INROW * LANES + i] = in_row
+    # nu may be +-inf at a cusp (infinite curvature, frictionless): not NaN
+    finite = (math.isfinite(p1) and math.isfinite(u1) and math.isfinite(dw)
+              and nu1 == nu1 and math.isfinite(dk))
+    if not finite or in_row > MAX_EVENTS_IN_ROW:
+        lanes[STATUS * LANES + i] = st.DIVERGED
+        return
+    lanes[T * LANES + i] = t + step_size
+    lanes[STEPS * LANES + i] += 1.0
+    lanes[WORK * LANES + i] += dw
+    lanes[CURV * LANES + i] += dk
+    lanes[DISP * LANES + i] += dx
+    lanes[PATH * LANES + i] += d * dx
+    if DRAG:
+        lanes[DRAGW * LANES + i] += dwd
+    lanes[NUMIN * LANES + i] = min(lanes[NUMIN * LANES + i], side * nu1)
+    # an exit step ends on the end (p1 passes it by the bisection's last float)
+    dx_step, x_now = x_travelled(p, lanes[XNOW * LANES + i], lanes[COSNOW * LANES + i],
+                                 min(max(p1, p_lo), p_hi), frame1[1], s0, s1, s2, s3, shared)
+    lanes[XNOW * LANES + i] = x_now
+    store_frame(lanes, i, frame1)
+    lanes[PATHX * LANES + i] += dx_step
+    lanes[U * LANES + i] = u1
+    if clean:
+        lanes[P * LANES + i] = p1
+        return
+    if not (p1 <= p_hi):  # exits first: the end is where the trajectory ends
+        lanes[P * LANES + i] = p_hi
+        lanes[STATUS * LANES + i] = st.EXITED
+        return
+    if not (p1 >= p_lo):
+        lanes[P * LANES + i] = p_lo
+        lanes[STATUS * LANES + i] = st.EXITED
+        return
+    lanes[P * LANES + i] = p1
+    if not (sn * nu1 > 0.0):
+        if ONE_SIDED:
+            lanes[PLIFT * LANES + i] = p1
+            lanes[STATUS * LANES + i] = st.LIFTED_OFF
+            return
+        sn = -sn
+        lanes[SN * LANES + i] = sn
+    if not (d * u1 > 0.0):
+        lanes[U * LANES + i] = 0.0
+        d, status = rest_rule(p1, mu_k, lanes[MUS * LANES + i], g, side, s0, s1, s2, s3, shared)
+        lanes[D * LANES + i] = d
+        lanes[STATUS * LANES + i] = status
+        if status == st.NOT_RUN:
+            lanes[NREV * LANES + i] += 1.0
+            _, cos_r, kappa_r, _ = curve_frame(p1, s0, s1, s2, s3, shared)
+            lanes[SN * LANES + i] = contact_sign(g * cos_r, kappa_r, side)
+        elif status == st.LIFTED_OFF:
+            lanes[PLIFT * LANES + i] = p1
 
 
 def empty_outputs(n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -10,7 +10,12 @@ the increments of the per-unit-mass integrals ∫ q nu u dt
 method's own order, and the step's scaled error norm (an embedded pair's
 estimate against ``atol + rtol |y|``; 0.0 for the fixed-step methods).
 ``curve_frame`` and the switches ``FRICTION``, ``DRAG*`` are bound per scene
-by ``jit.specialise``; ``stage`` is this module's :func:`_stage`, specialised.
+by ``jit.specialise``; ``stage`` and ``stage_from`` are this module's
+:func:`_stage` and :func:`_stage_from`, specialised.  Each step's last
+argument ``frame`` is the curve's frame at ``p`` (``curve_frame(p, ...)``,
+which the caller has): its first stage starts from it.  A step without
+that argument works too (``curve_lanes.build_curve_kernel`` looks at the
+signature), one frame evaluation dearer.
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from .jit import fma, jit
 from .steppers import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64,
                        A65, _error6, _weigh5)
 
-curve_frame = stage = stage_rates = None  # bound per scene
+curve_frame = stage = stage_from = stage_rates = None  # bound per scene
 FRICTION = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False
 
@@ -38,10 +43,17 @@ def normal_along_n(u, cos_phi, kappa, g):
 
 
 def _stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c):
-    """At one point: (du/dt, nu, kappa u, dp/ds, drag power per unit mass).
-    An infinite curvature (a cusp, a single point) turns nothing: kappa u is
-    taken as 0 there rather than inf * u."""
-    sin_phi, cos_phi, kappa, dp_ds = curve_frame(p, s0, s1, s2, s3, shared)
+    """At one point: (du/dt, nu, kappa u, dp/ds, drag power per unit mass)."""
+    return stage_from(curve_frame(p, s0, s1, s2, s3, shared), u, q, d, g, b, c)
+
+
+def _stage_from(frame, u, q, d, g, b, c):
+    """:func:`_stage` from the curve's frame at the point, ``(sin phi, cos phi,
+    kappa, dp/ds)``: a step's first stage takes the frame its caller has
+    (the lane kernel carries it from the previous step's end).  An infinite
+    curvature (a cusp, a single point) turns nothing: kappa u is taken as 0
+    there rather than inf * u."""
+    sin_phi, cos_phi, kappa, dp_ds = frame
     nu = normal_along_n(u, cos_phi, kappa, g)
     a = -g * sin_phi
     if FRICTION:
@@ -59,22 +71,22 @@ def _stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c):
     return a, nu, turn, dp_ds, power
 
 
-def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
-    a, nu, turn, dp_ds, power = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
+    a, nu, turn, dp_ds, power = stage_from(frame, u, q, d, g, b, c)
     work = h * q * nu * u if FRICTION else 0.0
     return fma(h, u * dp_ds, p), fma(h, a, u), work, h * d * turn, h * u, h * power, 0.0
 
 
-def _semi_implicit_euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
-    a, nu, turn, dp_ds, power = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+def _semi_implicit_euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
+    a, nu, turn, dp_ds, power = stage_from(frame, u, q, d, g, b, c)
     u_new = fma(h, a, u)
     work = h * q * nu * u if FRICTION else 0.0
     return fma(h, u_new * dp_ds, p), u_new, work, h * d * turn, h * u_new, h * power, 0.0
 
 
-def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     half = 0.5 * h
-    a1, nu1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    a1, nu1, k1, r1, pd1 = stage_from(frame, u, q, d, g, b, c)
     u2 = fma(half, a1, u)
     a2, nu2, k2, r2, pd2 = stage(fma(half, u * r1, p), u2, q, d, g, s0, s1, s2, s3, shared, b, c)
     u3 = fma(half, a2, u)
@@ -91,11 +103,11 @@ def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
     return p_new, u_new, work, curvature, displacement, drag, 0.0
 
 
-def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     """Dormand-Prince 5(4) (the ramp kernel's tableau, steppers.py), without
     carrying the last stage over: the error norm covers p, u and the
     friction work (and the drag work with drag), RMS of err / (atol + rtol |y|)."""
-    a1, n1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    a1, n1, k1, r1, pd1 = stage_from(frame, u, q, d, g, b, c)
     v1 = u * r1
     u2 = fma(h * A21, a1, u)
     a2, n2, k2, r2, pd2 = stage(fma(h * A21, v1, p), u2, q, d, g, s0, s1, s2, s3, shared, b, c)
@@ -141,12 +153,12 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
     return p7, u7, work, turn, displacement, drag, math.sqrt(squares / count)
 
 
-def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c):
+def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame):
     """DOP853's stages 1..12 (core/dop853.py's tableau): 12-tuples of
     (dp/dt, du/dt, nu u, kappa u, drag power) over the stages.  The new state
     uses stages 1 and 6..12 only, so the 13th (at the new state, which the
     ramp kernel carries over to the next step) is not evaluated here."""
-    a1, n1, k1, r1, pd1 = stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c)
+    a1, n1, k1, r1, pd1 = stage_from(frame, u, q, d, g, b, c)
     v1 = u * r1
     p2 = fma(h, _dot1(A2, v1), p)
     u2 = fma(h, _dot1(A2, a1), u)
@@ -201,14 +213,14 @@ def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c):
             (pd1, pd2, pd3, pd4, pd5, pd6, pd7, pd8, pd9, pd10, pd11, pd12))
 
 
-def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
+def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     """Dormand-Prince 8(5,3) (core/dop853.py's tableau and weights).  Error:
     dop853.f's combination of the fifth- and third-order estimates,
     err5^2 / sqrt(n (err5^2 + 0.01 err3^2)) over the n scaled components
     p, u and the friction work (and the drag work with drag), each against
     atol + rtol |y| as in :func:`_dopri5_step`."""
     velocities, accelerations, works, turns, speeds, powers = stage_rates(
-        p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c)
+        p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame)
     p_new = fma(h, _weigh8(velocities), p)
     u_new = fma(h, _weigh8(accelerations), u)
     work = h * q * _weigh8(works) if FRICTION else 0.0
@@ -247,8 +259,9 @@ def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol):
 
 #: method name -> (step template, order, adaptive, step-size control): the
 #: control is (alpha, beta, shrink) of the PI controller in
-#: curve_kernel._trajectory (control.py's gains per pair; after a rejection
-#: the step shrinks by err^-shrink), None for the fixed-step methods
+#: curve_kernel._accepted_factor / _rejected_factor (control.py's gains per
+#: pair; after a rejection the step shrinks by err^-shrink), None for the
+#: fixed-step methods
 CURVE_STEPPERS = {
     "euler": (_euler_step, 1, False, None),
     "semi_implicit_euler": (_semi_implicit_euler_step, 1, False, None),

@@ -15,7 +15,9 @@ fixed signature, which the curve kernel (``curve_kernel.py``) inlines:
 :mod:`rampwork.curves`.  No function here divides by ``cos phi``: a vertical
 tangent is an ordinary point.  The cycloid's cusp has infinite curvature
 (``kappa = inf`` at ``s = 0``); ``curve_kernel.normal_along_n`` gives it no
-force at rest.
+force at rest.  ``sin`` and ``cos`` are :mod:`vmath`'s (within 1 ulp; libm
+calls would keep the lane kernel's vector loop scalar); the cycloid's point
+still calls ``atan2``.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from __future__ import annotations
 import math
 
 from .jit import fma, jit
+from . import vmath
 from .ramps import _spline_interval
 
 # ---------------------------------------------------------------------------
@@ -33,15 +36,15 @@ from .ramps import _spline_interval
 
 @jit
 def loop_frame(p, p0, p1, p2, p3, shared):
-    theta = p / p0
-    return math.sin(theta), math.cos(theta), 1.0 / p0, 1.0
+    sin_theta, cos_theta = vmath.sincos(p / p0)
+    return sin_theta, cos_theta, 1.0 / p0, 1.0
 
 
 @jit
 def loop_point(p, p0, p1, p2, p3, shared):
     theta = p / p0
-    half = math.sin(0.5 * theta)
-    return p0 * math.sin(theta), 2.0 * p0 * (half * half)  # R (1 - cos theta), no cancellation
+    half = vmath.sin(0.5 * theta)
+    return p0 * vmath.sin(theta), 2.0 * p0 * (half * half)  # R (1 - cos theta), no cancellation
 
 
 # ---------------------------------------------------------------------------
@@ -59,15 +62,15 @@ def loop_point(p, p0, p1, p2, p3, shared):
 @jit
 def quarter_pipe_frame(p, p0, p1, p2, p3, shared):
     curved = p > p1 if p3 == 0.0 else p3 > 0.0
-    theta = (p - p1) / p0 if curved else 0.0
-    return math.sin(theta), math.cos(theta), 1.0 / p0 if curved else 0.0, 1.0
+    sin_theta, cos_theta = vmath.sincos((p - p1) / p0 if curved else 0.0)
+    return sin_theta, cos_theta, 1.0 / p0 if curved else 0.0, 1.0
 
 
 @jit
 def quarter_pipe_point(p, p0, p1, p2, p3, shared):
     theta = max(p - p1, 0.0) / p0
-    half = math.sin(0.5 * theta)
-    return min(p, p1) + p0 * math.sin(theta), 2.0 * p0 * (half * half)
+    half = vmath.sin(0.5 * theta)
+    return min(p, p1) + p0 * vmath.sin(theta), 2.0 * p0 * (half * half)
 
 
 # ---------------------------------------------------------------------------
@@ -110,8 +113,8 @@ _GL_WEIGHTS = (0.36268378337836166, 0.3137066458778869, 0.22238103445337443, 0.1
 
 @jit
 def clothoid_frame(p, p0, p1, p2, p3, shared):
-    phi = p3 + p * (p2 + 0.5 * p / (p0 * p0))
-    return math.sin(phi), math.cos(phi), p2 + p / (p0 * p0), 1.0
+    sin_phi, cos_phi = vmath.sincos(p3 + p * (p2 + 0.5 * p / (p0 * p0)))
+    return sin_phi, cos_phi, p2 + p / (p0 * p0), 1.0
 
 
 @jit
@@ -126,9 +129,9 @@ def clothoid_point(p, p0, p1, p2, p3, shared):
         for j in range(4):
             for sign in (-1.0, 1.0):
                 s = centre + sign * (0.5 * width) * _GL_NODES[j]
-                phi = p3 + s * (p2 + 0.5 * s / (p0 * p0))
-                x += _GL_WEIGHTS[j] * math.cos(phi)
-                y += _GL_WEIGHTS[j] * math.sin(phi)
+                sin_phi, cos_phi = vmath.sincos(p3 + s * (p2 + 0.5 * s / (p0 * p0)))
+                x += _GL_WEIGHTS[j] * cos_phi
+                y += _GL_WEIGHTS[j] * sin_phi
     return 0.5 * width * x, 0.5 * width * y
 
 
@@ -153,15 +156,15 @@ def loop_track_frame(p, p0, p1, p2, p3, shared):
     if sigma <= 0.0:
         return 0.0, 1.0, 0.0, 1.0
     if sigma <= p1:
-        phi = 0.5 * sigma * sigma / (p1 * p0)
-        return math.sin(phi), math.cos(phi), sigma / (p1 * p0), 1.0
+        sin_phi, cos_phi = vmath.sincos(0.5 * sigma * sigma / (p1 * p0))
+        return sin_phi, cos_phi, sigma / (p1 * p0), 1.0
     if sigma <= p1 + arc:
-        phi = 0.5 * p1 / p0 + (sigma - p1) / p0
-        return math.sin(phi), math.cos(phi), 1.0 / p0, 1.0
+        sin_phi, cos_phi = vmath.sincos(0.5 * p1 / p0 + (sigma - p1) / p0)
+        return sin_phi, cos_phi, 1.0 / p0, 1.0
     rest = 2.0 * p1 + arc - sigma  # arc length left in the exit blend
     if rest >= 0.0:
-        phi = -0.5 * rest * rest / (p1 * p0)
-        return math.sin(phi), math.cos(phi), rest / (p1 * p0), 1.0
+        sin_phi, cos_phi = vmath.sincos(-0.5 * rest * rest / (p1 * p0))
+        return sin_phi, cos_phi, rest / (p1 * p0), 1.0
     return 0.0, 1.0, 0.0, 1.0
 
 
@@ -177,14 +180,14 @@ def loop_track_point(p, p0, p1, p2, p3, shared):
     bx, by = _track_blend(p1, p1, p0)
     phi_in = 0.5 * p1 / p0
     # the circle's centre, from the entry blend's end
-    cx = p2 + bx - p0 * math.sin(phi_in)
-    cy = by + p0 * math.cos(phi_in)
+    cx = p2 + bx - p0 * vmath.sin(phi_in)
+    cy = by + p0 * vmath.cos(phi_in)
     if sigma <= p1 + arc:
         phi = phi_in + (sigma - p1) / p0
-        return cx + p0 * math.sin(phi), cy - p0 * math.cos(phi)
+        return cx + p0 * vmath.sin(phi), cy - p0 * vmath.cos(phi)
     # the exit blend starts where the circle ends (phi = 2 pi - phi_in)
-    x3 = cx - p0 * math.sin(phi_in)
-    y3 = cy - p0 * math.cos(phi_in)
+    x3 = cx - p0 * vmath.sin(phi_in)
+    y3 = cy - p0 * vmath.cos(phi_in)
     tau = min(sigma - p1 - arc, p1)
     ex, ey = _track_blend(p1 - tau, p1, p0)
     x4 = x3 + (bx - ex)
