@@ -10,7 +10,7 @@ chord and parabola run as ramps y = f(x), the arc as a curve, all RK4.  The
 cycloid and the optimum run from rest at the cusp itself as convex_cusp
 curves (dopri5, rtol 1e-12): the cycloid with all its shape coefficients
 zero (rho = 4 r cos phi), the optimum with log(rho / cos phi) of the derived
-curve interpolated at 40 Chebyshev points; the optimum's time by quadrature
+curve interpolated at 160 Chebyshev points; the optimum's time by quadrature
 is kept beside it as a check.
 Two end points: B = (1, -1) m and B = (2, -1) m (the optimum dips below B
 and climbs back).  Checks: at mu = 0 the cycloid time is theta sqrt(r / g);
@@ -43,6 +43,9 @@ CURVES = ("chord", "parabola", "circle", "cycloid", "optimum")
 MU_MAX = 0.6
 DT = 1e-4  # s, RK4
 T_MAX = 10.0  # s
+#: Chebyshev points of the optimum's fit into convex_cusp: near the largest mu that reaches
+#: (2, -1) (0.49) 40 points leave 1e-4 in the time, 80 2.5e-9, 160 1e-12
+NODES = 160
 CUSP_RTOL = 1e-12  # dopri5 on the convex_cusp curves (cycloid, optimum), from rest at the cusp
 
 
@@ -108,15 +111,15 @@ def run_convex_cusp(curves, mu):
 
 def optimum_curves(optima):
     """The derived optima (one per mu) fitted into the convex_cusp family:
-    log(rho / cos(phi)) interpolated at 40 Chebyshev points (tests/test_cusp_curve.py:
-    it runs in the quadrature's time to 1e-11)."""
-    t = np.cos(np.pi * (np.arange(40) + 0.5) / 40)
+    log(rho / cos(phi)) interpolated at NODES Chebyshev points (tests/test_cusp_curve.py:
+    40 run in the quadrature's time to 1e-11 at mu = 0.2)."""
+    t = np.cos(np.pi * (np.arange(NODES) + 0.5) / NODES)
     coefficients, angles = [], []
     for best in optima:
         extremal, span = best._extremal, best.phi_end + 0.5 * math.pi
         phi = -0.5 * math.pi + (t + 1) / 2 * span
         rho = np.array([extremal.ds_dphi(f) for f in phi]) * best.scale
-        coefficients.append(np.polynomial.chebyshev.chebfit(t, np.log(rho / np.cos(phi)), 39))
+        coefficients.append(np.polynomial.chebyshev.chebfit(t, np.log(rho / np.cos(phi)), NODES - 1))
         angles.append(best.phi_end)
     return {"coefficients": np.array(coefficients), "end_angle": np.array(angles)}
 
