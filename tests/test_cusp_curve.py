@@ -229,3 +229,44 @@ def test_a_local_optimisation_through_the_engine_finds_the_derived_optimum():
     assert cycloid / best - 1 > 1e-5  # the cycloid is slower by 0.005 % ...
     assert -1e-11 < result.fun / best - 1 < 1e-9  # ... the optimum found is the derived one
     assert set(calls) == {2 * k + 1}
+
+
+def _cycloid_time(end):
+    """theta sqrt(r / g) of the cycloid from its cusp at A through B (closed form, r and theta by brentq)."""
+    from scipy.optimize import brentq
+
+    bx, by = end
+    theta = brentq(lambda t: (t - math.sin(t)) * -by - bx * (1 - math.cos(t)), 1e-6, 2 * math.pi - 1e-9)
+    return theta * math.sqrt(-by / (1 - math.cos(theta)) / G)
+
+
+def test_rw_optimise_with_the_curve_shape_recovers_the_cycloid_without_friction():
+    """Through rw.optimise (DE from a random population, then the batched
+    central-difference polish): the cycloid's closed-form time to 1e-6."""
+    end = (2.0, -1.0)
+    history = rw.optimise(_scene(0.0), CuspCurve(end=end, k=2), "t_end", seed=1, popsize=5,
+                          maxiter=20, tol=1e-12, polish=True, threads=1)
+    best, cycloid = history.attrs["best_objective"], _cycloid_time(end)
+    assert abs(best / cycloid - 1) < 1e-6
+    assert best > cycloid * (1 - 1e-11)  # nothing through B beats the cycloid without friction
+    assert np.abs(history.attrs["best_parameters_final"]).max() < 0.05  # all zero is the cycloid
+
+
+def test_rw_optimise_with_the_curve_shape_lands_on_the_frictional_optimum():
+    """mu = 0.2 towards (1, -1), K = 2: within 1e-6 of the derived optimum's
+    time, and no candidate that arrives (final population or best) beats it
+    beyond the integrator's rounding (rtol 1e-12)."""
+    end, mu = (1.0, -1.0), 0.2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        optimum = frictional_brachistochrone(end, mu, g=G).time
+    scene = _scene(mu)
+    history = rw.optimise(scene, CuspCurve(end=end, k=2), "t_end", seed=1, popsize=6, maxiter=30,
+                          tol=1e-12, polish=True, threads=1)
+    best = history.attrs["best_objective"]
+    assert optimum * (1 - 1e-10) < best < optimum * (1 + 1e-6)
+    arrived = history["feasible"].values
+    assert arrived.sum() >= 6
+    assert (history["objective"].values[arrived] > optimum * (1 - 1e-10)).all()
+    cycloid = CuspCurve(end=end, k=2).evaluate(np.zeros((1, 2)), scene).t_end.values[0]
+    assert best < cycloid  # and it beats the frictionless cycloid through B

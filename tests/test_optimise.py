@@ -323,3 +323,30 @@ def test_cli_optimise_writes_the_history(tmp_path, capsys):
         err = capsys.readouterr().err
         assert str(scene) in err and where in err, (override, err)
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_cli_optimise_a_cusp_curve_finds_the_frictional_brachistochrone(tmp_path, capsys):
+    """``shape = "cusp_curve"`` on a curve scene: the example's optimisation
+    lands within 1e-6 of the derived optimum's time and not below it."""
+    from rampwork.cli import example_text, main
+
+    scene = tmp_path / "fastest_descent.toml"
+    scene.write_text(example_text("fastest_descent"), encoding="utf-8")
+    out = tmp_path / "history.nc"
+    code = main(["optimise", str(scene), "-o", str(out), "--set", "optimise.maxiter=20", "--threads", "1"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "generation 20/20" in captured.err and "best          t_end" in captured.out
+    history = rw.open_dataset(out)
+    optimum = frictional_brachistochrone((1.0, -1.0), mu=0.2).time
+    best = history.attrs["best_objective"]
+    assert optimum * (1 - 1e-10) < best < optimum * (1 + 1e-6)
+    assert history.attrs["K"] == 4 and "CuspCurve" in history.attrs["shape"]
+    # bad input: one line naming the file and the key, before any work
+    for override, where in (("optimise.k=0", "optimise.k"), ("optimise.end=[1.0, 0.5]", "optimise.end"),
+                            ("optimise.start=[0.0, 0.0]", "optimise.start"), ("s0=0.1", "s0"),
+                            ("curve.family='loop'", "[curve]"), ("optimise.amplitude=1.0", "optimise.amplitude")):
+        assert main(["optimise", str(scene), "-o", str(tmp_path / "x.nc"), "--set", override]) == 2
+        err = capsys.readouterr().err
+        assert str(scene) in err and where in err, (override, err)
+    assert not (tmp_path / "x.nc").exists()

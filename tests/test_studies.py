@@ -27,7 +27,7 @@ from rampwork.cli import main
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
 STUDIES = ("exam_question", "excess_work_map", "sign_changing_convexity", "phase_portraits",
            "liftoff_map", "sensitivity_excess_work", "loop_the_loop",
-           "descent_two_points", "least_most_work")
+           "descent_two_points", "least_most_work", "frictional_brachistochrone")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -345,6 +345,38 @@ def test_descent_two_points_chord_and_cycloid_closed_forms_and_optimum(outputs):
             theta * np.sqrt(r / g), rel=1e-9)
         assert np.isclose(r * (theta - np.sin(theta)), bx) and np.isclose(-r * (1 - np.cos(theta)), by)
         best = one["time"].sel(curve="optimum")
+        # the optimum run through the engine (convex_cusp) in the time of its quadrature
+        np.testing.assert_allclose(best, one["optimum_time_quadrature"], rtol=1e-9)
         engine = one["time"].sel(curve=["chord", "parabola", "circle", "cycloid"])
         assert not (engine < best * (1 - 1e-6)).any()  # NaN (did not arrive) compares False
         assert engine.notnull().any()
+
+
+def test_frictional_brachistochrone_optimised_against_the_cycloid_and_the_derived_optimum(outputs):
+    from scipy.optimize import brentq
+
+    ds = dataset(outputs, "frictional_brachistochrone")
+    g = 9.81
+    assert list(ds["curve"].values) == ["chord", "circle", "cycloid", "optimised", "optimum"]
+    for i, (bx, by) in enumerate(zip(ds["B_x"].values, ds["B_y"].values)):
+        one = ds.isel(end=i)
+        # mu = 0: the optimised curve runs in the cycloid's closed-form time theta sqrt(r / g)
+        theta = brentq(lambda t: (t - np.sin(t)) * -by - bx * (1 - np.cos(t)), 1e-6, 2 * np.pi - 1e-9)
+        cycloid = theta * np.sqrt(-by / (1 - np.cos(theta)) / g)
+        assert one["time"].sel(curve="optimised", mu=0.0).item() == pytest.approx(cycloid, rel=1e-6)
+        # with friction: close to the derived optimum (smoke: K = 3), never faster than it
+        best = one["time"].sel(curve="optimum")
+        assert np.abs(one["time"].sel(curve="optimised") / best - 1).max() < 1e-4
+        assert not (one["time"].sel(curve=["chord", "circle", "cycloid", "optimised"]) < best * (1 - 1e-9)).any()
+        # the chord against sqrt(2 L / (g (sin beta - mu cos beta)))
+        length, beta = np.hypot(bx, by), np.arctan2(-by, bx)
+        np.testing.assert_allclose(one["time"].sel(curve="chord").values,
+                                   np.sqrt(2 * length / (g * (np.sin(beta) - one["mu"].values * np.cos(beta)))),
+                                   rtol=1e-9)
+        # both drawn curves run from A to B
+        for which in ("optimised", "optimum"):
+            path = one["path"].sel(which=which)
+            assert np.abs(path.isel(point=0).values).max() < 1e-12
+            np.testing.assert_allclose(path.isel(point=-1).sel(axis="X"), bx, atol=1e-12)
+            np.testing.assert_allclose(path.isel(point=-1).sel(axis="Y"), by, atol=1e-12)
+        assert (one["status"].sel(curve="optimised") == 2).all() and one["reached_B"].sel(curve="optimised").all()

@@ -1,8 +1,13 @@
 """``rampwork optimise SCENE.toml -o history.nc``: a scene file with an
 ``[optimise]`` table (docs/optimise.md).  The other tables set the physics
-as in ``run`` (friction, drag, integrator, contact, t_max, v0, m, g); the
-ramp is the optimised shape's, so ``[ramp]`` may be left out, and a
-``[sweep]`` is refused (the population is the sweep).
+as in ``run`` (friction, drag, integrator, contact, t_max, v0 or u0, m, g);
+the ramp or curve is the optimised shape's, so ``[ramp]`` and ``[curve]``
+are left out, and a ``[sweep]`` is refused (the population is the sweep).
+``shape = "chord_modes"`` optimises ramps y = f(x) (a ramp scene);
+``shape = "cusp_curve"`` convex curves from a vertical start at A = (0, 0)
+to ``end`` (``rampwork.descent_shapes.CuspCurve``: the family that holds
+the frictional brachistochrone), run as a curve scene from rest at A (or
+``u0``).
 
     [optimise]
     shape = "chord_modes"      # the y = f(x) family (rampwork.ChordModes)
@@ -15,6 +20,12 @@ ramp is the optimised shape's, so ``[ramp]`` may be left out, and a
     seed = 0
     popsize = 15
     maxiter = 100
+
+    [optimise]                 # or: the fastest convex curve from A = (0, 0)
+    shape = "cusp_curve"
+    end = [1.0, -1.0]          # B (m), right of and below A
+    k = 8                      # Chebyshev coefficients c_1 .. c_K
+    objective = "t_end"
 """
 
 from __future__ import annotations
@@ -29,9 +40,12 @@ from .optimiser import OptimiseSettings, optimise
 from .scenefile import _read_text, apply_overrides, read_toml, scene_from_dict
 from .shapes import ChordModes
 
-SHAPES = ("chord_modes",)
-#: [optimise] keys: the shape's, then the optimiser's (OptimiseSettings)
-SHAPE_KEYS = ("shape", "start", "end", "k", "amplitude", "decay", "y_low", "y_high")
+SHAPES = ("chord_modes", "cusp_curve")
+#: [optimise] keys: the shapes', then the optimiser's (OptimiseSettings)
+SHAPE_KEYS = ("shape", "start", "end", "k", "amplitude", "decay", "y_low", "y_high", "bound")
+#: the shape keys each shape takes
+KEYS_OF_SHAPE = {"chord_modes": ("shape", "start", "end", "k", "amplitude", "decay", "y_low", "y_high"),
+                 "cusp_curve": ("shape", "end", "k", "bound", "decay")}
 SETTINGS_KEYS = ("objective", "sense", "constraints", "seed", "popsize", "maxiter", "tol", "atol",
                  "mutation", "recombination", "init", "penalty", "polish", "polish_step", "x0")
 OPTIMISE_KEYS = SHAPE_KEYS + SETTINGS_KEYS
@@ -59,13 +73,20 @@ def _read(data: dict):
     shape_name = table.get("shape", "chord_modes")
     if shape_name not in SHAPES:
         raise ConfigError("optimise.shape", f"unknown shape {shape_name!r}; allowed: {', '.join(SHAPES)}")
-    for key in ("start", "end", "k"):
+    for key in SHAPE_KEYS:
+        if key in table and key not in KEYS_OF_SHAPE[shape_name]:
+            raise ConfigError(f"optimise.{key}", f"not a key of shape {shape_name!r}; its keys: "
+                              f"{', '.join(KEYS_OF_SHAPE[shape_name][1:])}")
+    for key in KEYS_OF_SHAPE[shape_name][1:4 if shape_name == "chord_modes" else 3]:
         if key not in table:
             raise ConfigError(f"optimise.{key}", "required")
-    shape = ChordModes(start=_pair(f"optimise.{'start'}", table["start"]),
-                       end=_pair("optimise.end", table["end"]), k=table["k"],
-                       amplitude=table.get("amplitude"), decay=table.get("decay", 1.0),
-                       y_bounds=(table.get("y_low"), table.get("y_high")))
+    if shape_name == "cusp_curve":
+        shape = _cusp_curve(table)
+    else:
+        shape = ChordModes(start=_pair(f"optimise.{'start'}", table["start"]),
+                           end=_pair("optimise.end", table["end"]), k=table["k"],
+                           amplitude=table.get("amplitude"), decay=table.get("decay", 1.0),
+                           y_bounds=(table.get("y_low"), table.get("y_high")))
     settings = {key: table[key] for key in SETTINGS_KEYS if key in table}
     if isinstance(settings.get("constraints"), list):
         settings["constraints"] = tuple(settings["constraints"])
@@ -73,7 +94,12 @@ def _read(data: dict):
         if isinstance(settings.get(key), list):
             settings[key] = tuple(settings[key])
     settings = OptimiseSettings(**settings)
+    if shape_name == "cusp_curve":
+        return _curve_scene(data, shape), shape, settings
     # the ramp is the shape's: the chord stands in while the scene is read
+    if "curve" in data:
+        raise ConfigError("[curve]", "not with shape 'chord_modes' (ramps y = f(x)); a curve "
+                          "scene optimises shape = 'cusp_curve'")
     if "ramp" in data:
         raise ConfigError("[ramp]", "not in an optimisation: the ramp is the optimised shape's "
                           "([optimise] start, end, k)")
@@ -84,6 +110,39 @@ def _read(data: dict):
     data["x0"] = shape.start[0]
     scene, _ = scene_from_dict(data, "<scene>")
     return scene, shape, settings
+
+
+def _cusp_curve(table: dict):
+    from .descent_shapes import CuspCurve
+
+    options = {key: table[key] for key in ("bound", "decay") if key in table}
+    try:
+        return CuspCurve(end=_pair("optimise.end", table["end"]), k=table["k"], **options)
+    except ConfigError as error:  # CuspCurve names its argument; the file's key is optimise.<name>
+        raise ConfigError(f"optimise.{error.where}", error.problem) from None
+
+
+def _curve_scene(data: dict, shape):
+    """The curve scene the candidates run in: the block starts at A's cusp
+    (s0 = 0, at rest or u0); the curve is each candidate's, the cycloid
+    through B stands in while the scene is read."""
+    import math
+
+    from scipy.optimize import brentq
+
+    for key, why in (("ramp", "the curve is the optimised shape's ([optimise] end, k)"),
+                     ("curve", "the curve is the optimised shape's ([optimise] end, k)"),
+                     ("s0", "the block starts at A, the curve's vertical start"),
+                     ("x0", "the block starts at A, the curve's vertical start")):
+        if key in data:
+            raise ConfigError(f"[{key}]" if key in ("ramp", "curve") else key,
+                              f"not in a cusp_curve optimisation: {why}")
+    bx, by = shape.end
+    theta = brentq(lambda t: (t - math.sin(t)) * -by - bx * (1 - math.cos(t)), 1e-6, 2 * math.pi - 1e-9)
+    data["curve"] = {"family": "brachistochrone", "radius": -by / (1 - math.cos(theta)), "end_angle": theta}
+    data["s0"] = 0.0  # the cusp; each candidate starts at its own
+    scene, _ = scene_from_dict(data, "<scene>")
+    return scene
 
 
 def _pair(where: str, value):

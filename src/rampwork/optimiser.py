@@ -39,6 +39,8 @@ OBJECTIVES = {"t_end": "s", "W_friction": "J", "W_excess": "J", "speed_end": "m 
 SENSES = ("minimise", "maximise")
 CONSTRAINTS = ("arrive", "stay_on")
 INITS = ("latinhypercube", "sobol", "halton", "random")
+#: L-BFGS-B iterations of the polish at most (each one or a few batched calls of 2K + 1)
+POLISH_MAXITER = 200
 #: what a checkpoint file holds, by version (a file of another version is refused)
 CHECKPOINT_VERSION = 1
 
@@ -296,7 +298,10 @@ def _polish(run: _Run, x: np.ndarray, energy: float) -> tuple[np.ndarray, float,
         gradient = (energies[1:k + 1] - energies[k + 1:]) / (plus - minus)
         return float(energies[0]), gradient
 
-    result = minimize(value_and_gradient, x, jac=True, method="L-BFGS-B", bounds=bounds)
+    # tolerances at rounding: L-BFGS-B's defaults (pgtol 1e-5) stop at the first gradient of a
+    # descent time, whose slopes are below 1e-5 s per unit coefficient near the optimum
+    result = minimize(value_and_gradient, x, jac=True, method="L-BFGS-B", bounds=bounds,
+                      options=dict(ftol=1e-15, gtol=1e-12, maxiter=POLISH_MAXITER))
     if result.fun < energy and result.fun < settings.penalty:
         return np.asarray(result.x), float(result.fun), calls
     return x, energy, calls
