@@ -56,8 +56,11 @@ ADAPTIVE = JOINTS = DRAG = False
 ONE_SIDED = True
 VECTOR = True  # False: every step through curve_kernel._iterate (the scalar reference)
 #: vector steps between scalar passes: a lane whose step holds an event waits
-#: for the next pass, so fewer, costlier steps want more frequent passes
-SUBSTEPS = 8
+#: for the next pass, so fewer, costlier steps want more frequent passes.
+#: Fixed steps: 4, not 8: with 8 (or 6, 16) the compiled pass ran 2.5-3.7x
+#: slower per step (Euler, RK4; benchmarks/README.md, i20-speed-6), while
+#: 1 to 4 are alike, so the pass itself costs little
+SUBSTEPS = 4
 SUBSTEPS_ADAPTIVE = 4
 #: lanes per vector loop: a constant trip count, so that LLVM proves the
 #: fields' accesses disjoint (fields lie LANES apart) and vectorises
