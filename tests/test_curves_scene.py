@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import rampwork as rw
+from rampwork.core.threads import max_threads
 from rampwork import cli, schema
 from rampwork.cli import main
 from rampwork.curve_scene import CurveScene
@@ -332,8 +333,17 @@ def test_cli_check_and_refusals(tmp_path, capsys):
     scene_path = _example_file(tmp_path, "quarter_pipe")
     assert main(["check", str(scene_path)]) == 0
     assert "quarter_pipe" in capsys.readouterr().out
-    assert main(["run", str(scene_path), "-o", str(tmp_path / "x.nc"), "--threads", "2"]) == 2
-    assert "--threads" in capsys.readouterr().err
+    # curve scenes run on threads (SIMD lanes over tiles): the same bits as one thread
+    outputs = []
+    for threads in ("1", str(min(2, max_threads()))):
+        outputs.append(tmp_path / f"threads{threads}.nc")
+        assert main(["run", str(scene_path), "-o", str(outputs[-1]), "--threads", threads,
+                     "--quiet"]) == 0
+    one, more = (rw.open_dataset(path) for path in outputs)
+    for name in one.data_vars:
+        np.testing.assert_array_equal(one[name].values, more[name].values, err_msg=name)
+    assert main(["run", str(scene_path), "-o", str(tmp_path / "x.nc"), "--threads", "0"]) == 2
+    assert "threads" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text(cli.example_text("loop").replace("radius = 1.0 ", "radius = -1.0 "), encoding="utf-8")
     assert main(["check", str(bad)]) == 2
