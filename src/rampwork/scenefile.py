@@ -710,7 +710,12 @@ def _toml_value(where: str, value) -> str:
 
 
 def _toml_array(where: str, values, width: int = 96) -> str:
-    items = [_toml_value(f"{where}[{i}]", v) for i, v in enumerate(values)]
+    if all(type(v) is float for v in values) and all(map(math.isfinite, values)):
+        # the common case (a shape population's table: 10^4 numbers per call),
+        # the same text as _toml_float's without a call and a message per number
+        items = list(map(repr, values))
+    else:
+        items = [_toml_value(f"{where}[{i}]", v) for i, v in enumerate(values)]
     line = "[" + ", ".join(items) + "]"
     if len(line) <= width:
         return line
