@@ -131,6 +131,8 @@ def main(argv=None) -> int:
     parser.add_argument("--n", type=int, default=2048, help="candidates per batch call (default 2048)")
     parser.add_argument("--scipy-n", type=int, default=24,
                         help="candidates the scipy loop and the error run (default 24)")
+    parser.add_argument("--cusp-n", type=int, default=512,
+                        help="CuspCurve candidates per call (default 512: its cost per candidate is flat in S)")
     parser.add_argument("--repeat", type=int, default=3, help="interleaved repeats (best of)")
     parser.add_argument("--quick", action="store_true", help="only the rtol-paired grid points")
     parser.add_argument("--out", type=Path, default=_common.RESULTS_DIR)
@@ -153,9 +155,10 @@ def main(argv=None) -> int:
         return CurveScene(curve=Curve.create("brachistochrone", radius=1.0), g=G, friction=rw.Friction(mu_k=MU),
                           t_max=20.0, integrator=rw.Integrator(method=method, rtol=rtol, atol=rtol))
 
-    cusp_table = population(cusp, cusp_scene("dopri5", 1e-8), args.n, seed=1)
+    cusp_table = population(cusp, cusp_scene("dopri5", 1e-8), args.cusp_n, seed=1)
     print(f"shape evaluations: {len(table)} candidates per call (K = {K}, mu = {MU}), scipy loop and errors on "
-          f"{len(subset)}; batch 1-thread CPU time and 2-thread wall, scipy CPU time, best of {args.repeat}")
+          f"{len(subset)} (CuspCurve: {len(cusp_table)} per call); batch 1-thread CPU time and 2-thread wall, "
+          f"scipy CPU time, best of {args.repeat}")
     truth = np.array([reference_trajectory(base, ramp=shape.ramp(row[None, :]), x0=START[0], rtol=1e-13,
                                            atol=1e-13)["t_end"] for row in subset])
     shapes = cusp.curves(cusp_table[:args.scipy_n])
