@@ -719,14 +719,17 @@ def _toml_array(where: str, values, width: int = 96) -> str:
     line = "[" + ", ".join(items) + "]"
     if len(line) <= width:
         return line
-    rows, row = [], ""
-    for item in items:
-        if row and len(row) + len(item) + 2 > width:
-            rows.append(row)
-            row = ""
-        row += item + ", "
-    rows.append(row)
-    return "[\n" + "".join(f"    {r.rstrip()}\n" for r in rows) + "]"
+    # greedy rows of at most ``width`` characters ("item, " each), cut by
+    # lengths alone: one join per row, not a string grown item by item
+    rows, start, used = [], 0, 0
+    for i, item in enumerate(items):
+        size = len(item) + 2
+        if used and used + size > width:
+            rows.append(", ".join(items[start:i]) + ",")
+            start, used = i, 0
+        used += size
+    rows.append(", ".join(items[start:]) + ",")
+    return "[\n" + "".join(f"    {r}\n" for r in rows) + "]"
 
 
 def _evenly_spaced(array: np.ndarray) -> bool:
