@@ -79,9 +79,18 @@ def test_curves_benchmark_pairs_the_kernels_on_the_same_ramp(tmp_path):
 
 
 def test_shape_evaluations_benchmark_reports_matched_accuracy(tmp_path):
-    done = _run("shape_evaluations.py", "--n", "16", "--scipy-n", "2", "--repeat", "1", out=tmp_path)
+    done = _run("shape_evaluations.py", "--n", "16", "--scipy-n", "2", "--repeat", "1", "--quick", out=tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     saved = json.loads(next(tmp_path.glob("shape_evaluations-*.json")).read_text())
+    assert len(saved["results"]) == 3
     for result in saved["results"].values():
         assert result["batch_per_s"] > 0 and result["scipy_per_s"] > 0
         assert result["batch_t_end_error"] < 100 * result["rampwork_rtol"]
+    # at equal error: each side's cost read off its own error-cost frontier
+    matched = saved["matched"]["1e-06"]
+    assert matched["scipy_cpu"] > 0 and matched["batch_cpu"] > 0
+    assert matched["ratio_batch_cpu"] == matched["scipy_cpu"] / matched["batch_cpu"]
+    for front in saved["fronts"].values():  # cheaper points are less accurate
+        costs, errors = [c for _, c in front], [e for e, _ in front]
+        assert costs == sorted(costs) and errors == sorted(errors, reverse=True)
+    assert all(entry["error"] < 1e-4 for entry in saved["cusp"].values())  # against the quadrature

@@ -474,8 +474,9 @@ class _SineModes(RampFamily):
         if table.size % k:
             raise ConfigError("ramp.coefficients", f"expected rows of n_modes = {k} numbers, got "
                               f"{table.size} numbers")
-        return tuple(float(v) for v in np.concatenate(
-            [[k, lo, hi, ends[0], ends[1], (ends[1] - ends[0]) / (hi - lo), math.pi / (hi - lo)], table]))
+        return tuple(np.concatenate(  # tolist: Python floats, as float(v) each, in one pass
+            [[k, lo, hi, ends[0], ends[1], (ends[1] - ends[0]) / (hi - lo), math.pi / (hi - lo)], table],
+            dtype=np.float64).tolist())
 
     def data_dict(self, shared):
         k = int(shared[0])

@@ -710,18 +710,26 @@ def _toml_value(where: str, value) -> str:
 
 
 def _toml_array(where: str, values, width: int = 96) -> str:
-    items = [_toml_value(f"{where}[{i}]", v) for i, v in enumerate(values)]
+    if all(type(v) is float for v in values) and all(map(math.isfinite, values)):
+        # the common case (a shape population's table: 10^4 numbers per call),
+        # the same text as _toml_float's without a call and a message per number
+        items = list(map(repr, values))
+    else:
+        items = [_toml_value(f"{where}[{i}]", v) for i, v in enumerate(values)]
     line = "[" + ", ".join(items) + "]"
     if len(line) <= width:
         return line
-    rows, row = [], ""
-    for item in items:
-        if row and len(row) + len(item) + 2 > width:
-            rows.append(row)
-            row = ""
-        row += item + ", "
-    rows.append(row)
-    return "[\n" + "".join(f"    {r.rstrip()}\n" for r in rows) + "]"
+    # greedy rows of at most ``width`` characters ("item, " each), cut by
+    # lengths alone: one join per row, not a string grown item by item
+    rows, start, used = [], 0, 0
+    for i, item in enumerate(items):
+        size = len(item) + 2
+        if used and used + size > width:
+            rows.append(", ".join(items[start:i]) + ",")
+            start, used = i, 0
+        used += size
+    rows.append(", ".join(items[start:]) + ",")
+    return "[\n" + "".join(f"    {r}\n" for r in rows) + "]"
 
 
 def _evenly_spaced(array: np.ndarray) -> bool:
