@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -53,6 +55,7 @@ def test_events_benchmark_reports_the_ceiling_fractions(tmp_path):
         "division_ceiling_per_s"]
 
 
+@pytest.mark.slow  # compiles curve and ramp kernels of three methods (about 40 s)
 def test_curves_benchmark_pairs_the_kernels_on_the_same_ramp(tmp_path):
     done = _run("curves.py", "--n", "64", "--methods", "rk4",
                 "--cases", "graph:circular_bowl,arc:circular_bowl", "--threads", "1",

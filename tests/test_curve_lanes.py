@@ -78,9 +78,15 @@ def _assert_same_bits(a, b, order=None):
             assert np.array_equal(left, b[key]), key
 
 
-#: (family, method): every method on three families, the adaptive and RK4 on all
-CASES = ([(name, method) for name in ("loop", "quarter_pipe", "graph_sine") for method in METHODS]
-         + [(name, method) for name in ("brachistochrone", "spline") for method in ("rk4", "dopri5")])
+#: (family, method): every method on three families, the adaptive and RK4 on all; the
+#: default suite runs every method on the loop and RK4 on every family, the slow suite
+#: the rest (each case compiles two kernel variants)
+CASES = [pytest.param(name, method, marks=() if name == "loop" or method == "rk4"
+                      else pytest.mark.slow)
+         for name, method in ([(name, method) for name in ("loop", "quarter_pipe", "graph_sine")
+                               for method in METHODS]
+                              + [(name, method) for name in ("brachistochrone", "spline")
+                                 for method in ("rk4", "dopri5")])]
 
 
 @pytest.mark.parametrize(("name", "method"), CASES)
