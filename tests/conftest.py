@@ -26,20 +26,31 @@ def reference():
 
 
 # ------------------------------------------------------------------------------
-# how many kernel variants the run compiled (printed at the end; the suite's
-# time is mostly compilation, so this is the number to keep down)
+# how many kernel variants the run compiled, and the seconds each test file
+# spent compiling (printed at the end; the suite's time is mostly
+# compilation, so these are the numbers to keep down)
 # ------------------------------------------------------------------------------
 _COMPILED: dict[str, int] = {"specialised": 0, "general": 0}
+_COMPILE_S: dict[str, float] = {}  # test file -> seconds in outermost numba compiles
+_RUNNING = {"file": "(collection and fixtures)", "depth": 0, "start": 0.0}
 
 
 def _count_compilations() -> None:
+    import time
+
     from numba.core import event
 
     class Counter(event.Listener):
         def on_start(self, ev):
-            pass
+            if _RUNNING["depth"] == 0:  # nested compiles (callees) are inside the outer one
+                _RUNNING["start"] = time.perf_counter()
+            _RUNNING["depth"] += 1
 
         def on_end(self, ev):
+            _RUNNING["depth"] -= 1
+            if _RUNNING["depth"] == 0:
+                seconds = time.perf_counter() - _RUNNING["start"]
+                _COMPILE_S[_RUNNING["file"]] = _COMPILE_S.get(_RUNNING["file"], 0.0) + seconds
             name = ev.data["dispatcher"].py_func.__name__
             if name.startswith("run_tiles_"):  # one per kernel variant
                 _COMPILED["general" if "_runtime_" in name else "specialised"] += 1
@@ -47,9 +58,15 @@ def _count_compilations() -> None:
     event.register("numba:compile", Counter())
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    _RUNNING["file"] = item.nodeid.split("::")[0]
+
+
 def pytest_configure(config):
     _count_compilations()
     config._rampwork_compiled = dict.fromkeys(_COMPILED, 0)
+    config._rampwork_compile_s = {}
     if not hasattr(config, "workerinput") and not config.option.collectonly:
         _compile_general_kernels()  # in the controller (or a run without workers)
 
@@ -57,12 +74,16 @@ def pytest_configure(config):
 def pytest_sessionfinish(session):
     if hasattr(session.config, "workeroutput"):  # an xdist worker: report to the controller
         session.config.workeroutput["rampwork_compiled"] = dict(_COMPILED)
+        session.config.workeroutput["rampwork_compile_s"] = dict(_COMPILE_S)
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_testnodedown(node, error):
-    for kind, count in getattr(node, "workeroutput", {}).get("rampwork_compiled", {}).items():
+    output = getattr(node, "workeroutput", {})
+    for kind, count in output.get("rampwork_compiled", {}).items():
         node.config._rampwork_compiled[kind] += count
+    for path, seconds in output.get("rampwork_compile_s", {}).items():
+        node.config._rampwork_compile_s[path] = node.config._rampwork_compile_s.get(path, 0.0) + seconds
 
 
 def pytest_terminal_summary(terminalreporter, config):
@@ -70,6 +91,14 @@ def pytest_terminal_summary(terminalreporter, config):
     terminalreporter.write_line(
         f"kernel variants compiled in this run: {counts['specialised']} specialised, "
         f"{counts['general']} general (the rest came from numba's disk cache)")
+    seconds = dict(config._rampwork_compile_s)
+    for path, s in _COMPILE_S.items():
+        seconds[path] = seconds.get(path, 0.0) + s
+    top = sorted(seconds.items(), key=lambda item: -item[1])[:12]
+    if top and top[0][1] >= 1.0:
+        terminalreporter.write_line(
+            f"numba compilation, {sum(seconds.values()):.0f} s in all; most by test file: "
+            + ", ".join(f"{path.removeprefix('tests/')} {s:.0f} s" for path, s in top))
 
 
 def _compile_general_kernels() -> None:

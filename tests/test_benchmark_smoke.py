@@ -20,6 +20,7 @@ def _run(script: str, *args: str, out: Path) -> subprocess.CompletedProcess:
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow  # compiles the throughput scene's kernels and the division ceiling's in a subprocess (~60 s)
 def test_throughput_skips_the_accuracy_comparison(tmp_path):
     done = _run("throughput.py", "--n", "300", "--methods", "euler", "--accuracy-subset", "0",
                 "--scipy-subset", "0", "--numpy-subset", "0", "--uniform", "0", "--no-scaling",
@@ -30,6 +31,7 @@ def test_throughput_skips_the_accuracy_comparison(tmp_path):
     assert "reference" not in saved and "accuracy" not in saved["methods"]["euler"]
 
 
+@pytest.mark.slow  # compiles two methods' kernels in a subprocess (~15 s)
 def test_overhead_benchmark_reports_every_stage(tmp_path):
     done = _run("overhead.py", "--methods", "euler", "dopri5", "--sizes", "100", "400",
                 "--repeat", "1", out=tmp_path)
@@ -81,6 +83,7 @@ def test_curves_benchmark_pairs_the_kernels_on_the_same_ramp(tmp_path):
     assert best["baseline"]["rk4/circular_bowl/1"]["steps_per_s"] > 0
 
 
+@pytest.mark.slow  # compiles the sine_modes kernels of two pairs in a subprocess (~15 s)
 def test_shape_evaluations_benchmark_reports_matched_accuracy(tmp_path):
     done = _run("shape_evaluations.py", "--n", "16", "--scipy-n", "2", "--repeat", "1", "--quick", out=tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]

@@ -44,9 +44,11 @@ def test_chord_parameter_speed():
     assert np.all(np.abs(e["dp_ds"] - 1.0) < 5e-3) and np.ptp(e["dp_ds"]) > 0
 
 
+# every method on the loop's closed forms in the default suite (tests/test_curves.py);
+# here the spline's frame with two methods, the others in the slow suite
 @pytest.mark.parametrize("method, dt, tol", [("rk4", 1e-3, 1e-8), ("dopri5", 1e-3, 1e-6),
-                                             ("dop853", 1e-3, 1e-6),
-                                             ("euler", 1e-5, 1e-2)])
+                                             pytest.param("dop853", 1e-3, 1e-6, marks=pytest.mark.slow),
+                                             pytest.param("euler", 1e-5, 1e-2, marks=pytest.mark.slow)])
 def test_energy_and_vertical_tangents_without_friction(method, dt, tol):
     """Inside the circle spline, fast enough to go round past both vertical
     tangents (theta = pi/2 and 3 pi/2) and out at its end."""

@@ -121,6 +121,7 @@ def test_the_plan_takes_the_short_form_only_where_steps_are_short(dt, v0_max, ra
         assert plan.variant.short_stages is short
 
 
+@pytest.mark.slow  # compiles two recording RK4 cycloid kernels (~35 s)
 def test_short_steps_stay_within_the_bound():
     """The bound holds where it matters: every recorded step of an event-rich
     sweep that the plan ran with the short form has (1.5 + 3 |f'|) tau <=

@@ -11,6 +11,7 @@ import textwrap
 
 import numba
 import numpy as np
+import pytest
 
 import rampwork as rw
 from rampwork.userfunctions import content_digest
@@ -78,6 +79,7 @@ _PROBE = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow  # two subprocesses, the first compiles a user-function kernel (~50 s)
 def test_a_second_process_loads_the_kernel_of_user_functions(tmp_path):
     (tmp_path / "userramp.py").write_text(textwrap.dedent("""
         import numba
