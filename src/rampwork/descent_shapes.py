@@ -13,8 +13,9 @@ dropped, and its numbers stay finite).
 (:mod:`rampwork.brachistochrone`): convex curves that leave A vertically,
 with radius of curvature ``ds/dphi = cos(phi) exp(c_0 + sum_k c_k T_k(t))``
 (the curve family ``convex_cusp``).  The K parameters are ``c_1 .. c_K``;
-per candidate a batched root-find sets the end angle so that the end lies in
-B's direction, and ``c_0`` scales the curve onto B::
+per candidate a root-find (jitted, ``core/cusp_end.py``) sets the end
+angle so that the end lies in B's direction, and ``c_0`` scales the curve
+onto B::
 
     >>> import rampwork as rw
     >>> from rampwork.curves import Curve
