@@ -270,3 +270,27 @@ def test_rw_optimise_with_the_curve_shape_lands_on_the_frictional_optimum():
     assert (history["objective"].values[arrived] > optimum * (1 - 1e-10)).all()
     cycloid = CuspCurve(end=end, k=2).evaluate(np.zeros((1, 2)), scene).t_end.values[0]
     assert best < cycloid  # and it beats the frictionless cycloid through B
+
+
+def test_end_angles_against_scipy_root_finding_on_the_numpy_quadrature():
+    """The jitted end-angle search (core/cusp_end.py) against scipy's brentq
+    on the end's direction by ``convex_cusp_end`` (numpy), per candidate."""
+    from scipy.optimize import brentq
+
+    from rampwork.curve_families import convex_cusp_end
+
+    shape = CuspCurve(end=(2.0, -1.0), k=6)
+    lo, hi = np.array(shape.bounds).T
+    population = lo + (hi - lo) * RNG.random((24, 6)) * 0.3 + (hi - lo) * 0.35
+    curves = shape.curves(population)
+    assert curves["through_b"].all()
+    target = math.atan2(-1.0, 2.0)
+
+    def miss(angle, row):
+        x, y, _ = convex_cusp_end(np.hstack([[0.0], row])[None], np.array([angle]))
+        return math.atan2(y[0], x[0]) - target
+
+    for row, angle in zip(population, curves["end_angle"]):
+        found = brentq(miss, -0.5 * math.pi + 1e-6, 0.5 * math.pi - 1e-3, args=(row,), xtol=1e-15, rtol=1e-15)
+        assert angle == pytest.approx(found, abs=1e-13)
+        assert abs(miss(angle, row)) <= 1e-14

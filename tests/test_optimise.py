@@ -143,6 +143,24 @@ def test_batch_evaluation_equals_one_by_one(evaluated):
                 np.isnan(one[name].values[0]) and np.isnan(ds[name].values[row])), (row, name)
 
 
+def test_evaluate_runs_as_simulate_without_the_scene_text(evaluated):
+    """ChordModes.evaluate runs through runner.run_scene(store_scene=False):
+    the same numbers, bit for bit, as rw.simulate's run of the same sweep,
+    which does store the scene file."""
+    from rampwork.runner import SCENE_NOT_STORED, run_scene
+
+    scene, ds = evaluated
+    ramp_scene = scene.replace(ramp=SHAPE.ramp(POPULATION), x0=0.0)
+    sweep = rw.Sweep.cases(row=np.arange(len(POPULATION), dtype=float))
+    full = rw.simulate(ramp_scene, sweep)
+    bare = run_scene(ramp_scene, sweep, store_scene=False)
+    assert full.attrs["rampwork_scene"].startswith("# rampwork scene file")
+    assert bare.attrs["rampwork_scene"] == SCENE_NOT_STORED
+    for name in ("status", "t_end", "x_end", "W_friction", "W_excess"):
+        np.testing.assert_array_equal(bare[name].values, full[name].values)
+        np.testing.assert_array_equal(ds[name].values, full[name].values)
+
+
 def test_lift_off_is_flagged():
     shape = ChordModes(start=(0.0, 1.0), end=(2.0, 0.0), k=1)
     # a dome: concave enough that the fast block leaves it

@@ -13,8 +13,9 @@ dropped, and its numbers stay finite).
 (:mod:`rampwork.brachistochrone`): convex curves that leave A vertically,
 with radius of curvature ``ds/dphi = cos(phi) exp(c_0 + sum_k c_k T_k(t))``
 (the curve family ``convex_cusp``).  The K parameters are ``c_1 .. c_K``;
-per candidate a batched root-find sets the end angle so that the end lies in
-B's direction, and ``c_0`` scales the curve onto B::
+per candidate a root-find (jitted, ``core/cusp_end.py``) sets the end
+angle so that the end lies in B's direction, and ``c_0`` scales the curve
+onto B::
 
     >>> import rampwork as rw
     >>> from rampwork.curves import Curve
@@ -38,6 +39,7 @@ import xarray as xr
 
 from . import schema, validate
 from .core import status as st
+from .core.cusp_end import cusp_end_angles
 from .core.threads import max_threads, using_threads
 from .curve_families import _END_WEIGHTS, _NODES, contract, convex_cusp_end
 from .curve_scene import FIRST_STEP, CurveScene
@@ -102,36 +104,15 @@ class CuspCurve:
         that puts its end at B's distance, so the candidate still runs)."""
         c = self._population(population)
         target = math.atan2(self.end[1], self.end[0])
-        # E without c_0 at the quadrature nodes does not depend on the end angle
+        # E without c_0 at the quadrature nodes does not depend on the end
+        # angle; the root-finding per candidate is jitted (core/cusp_end.py)
         exponent = np.exp(np.polynomial.chebyshev.chebval(_NODES, np.hstack(
             [np.zeros((c.shape[0], 1)), c]).T))
-
-        def miss(angles):
-            """Direction of the end from A, minus B's (rad), for end angles (S, n)."""
-            half = 0.5 * (angles + 0.5 * math.pi)[..., None]
-            theta = half * (_NODES + 1.0)
-            rate = half * np.sin(theta) * exponent[:, None, :]
-            x = contract(rate * np.sin(theta), _END_WEIGHTS)
-            y = -contract(rate * np.cos(theta), _END_WEIGHTS)
-            return np.arctan2(y, x) - target
-
-        grid = np.linspace(-0.5 * math.pi, _END_ANGLE_MAX, _BRACKETS + 1)[1:]
-        values = miss(np.broadcast_to(grid, (c.shape[0], grid.size)))
-        crossing = (values[:, :-1] <= 0) & (values[:, 1:] >= 0)
-        through = crossing.any(axis=1)
-        first = np.argmax(crossing, axis=1)
-        lo = np.where(through, grid[first], grid[np.argmin(np.abs(values), axis=1)])
-        hi = np.where(through, grid[first + 1], lo)
-        # bisection to adjacent floats, all candidates at once
-        for _ in range(200):
-            mid = 0.5 * (lo + hi)
-            active = (mid > lo) & (mid < hi)
-            if not active.any():
-                break
-            below = miss(mid[:, None])[:, 0] <= 0
-            lo = np.where(active & below, mid, lo)
-            hi = np.where(active & ~below, mid, hi)
-        angles = np.where(np.abs(miss(lo[:, None])[:, 0]) <= np.abs(miss(hi[:, None])[:, 0]), lo, hi)
+        step = (_END_ANGLE_MAX + 0.5 * math.pi) / _BRACKETS
+        angles = np.empty(c.shape[0])
+        through = np.empty(c.shape[0], dtype=np.bool_)
+        cusp_end_angles(np.ascontiguousarray(exponent), _NODES, _END_WEIGHTS, target, step, _BRACKETS,
+                        angles, through)
         coefficients = np.hstack([np.zeros((c.shape[0], 1)), c])
         x, y, _ = convex_cusp_end(coefficients, angles)
         coefficients[:, 0] = np.log(math.hypot(*self.end) / np.hypot(x, y))
