@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import validate
-from .core import curve_kernel, curve_lanes, curves as core_curves
+from .core import curve_kernel, curve_lanes, curve_trace, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
 from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
@@ -231,6 +231,16 @@ class CurveRun:
         result["status"] = status.reshape(self.shape)
         result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(self.shape)
         return result
+
+    def trace(self, index: int, every: int = 1, max_samples: int = 20000) -> np.ndarray:
+        """Trajectory ``index`` (flat) recorded: rows ``curve_trace.TRACE_ROWS``
+        (t, s, u, X, Y, W_friction, nu, W_drag), its samples as columns (the
+        start, every ``every`` steps, every event step, the end: at most
+        ``max_samples``); its last column is the batch's outputs, bit for bit."""
+        trace = np.full((len(curve_trace.TRACE_ROWS), max_samples), np.nan)
+        inputs = np.ascontiguousarray(self.inputs[:, index:index + 1])
+        count = self.kernel.trace_one(0, inputs, self.shared, *self.arguments, int(every), trace)
+        return trace[:, :count]
 
 
 def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1.0,

@@ -35,6 +35,7 @@ import math
 import numpy as np
 
 from . import curve_kernel as ck
+from . import curve_trace
 from . import status as st
 from .control import ERROR_FLOOR
 from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
@@ -354,8 +355,11 @@ class CurveKernel:
     (rows ``curve_kernel.OUTPUTS``) and ``status``, in tiles over
     :func:`threads.current_threads` threads (``threads.using_threads``)."""
 
-    def __init__(self, run_tiles):
+    def __init__(self, run_tiles, trace_one=None):
         self.run_tiles = run_tiles
+        #: ``trace_one(j, inputs, shared, h, t_max, side, rtol, atol, every, trace)``:
+        #: one trajectory recorded (core/curve_trace.py), compiled on first use
+        self.trace_one = trace_one
 
     def __call__(self, inputs, shared, h, t_max, side, rtol, atol, out, status):
         n = inputs.shape[1]
@@ -409,4 +413,6 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
                             (_finish_lane, "finish_lane"), (_vector_step, "vector_step"),
                             (_vector_pass, "vector_pass"), (_run_tile, "run_tile")):
         constants[bound] = build(template, bound)
-    return CurveKernel(build(_run_tiles, "tiles"))
+    trace_one = build(curve_trace._trace_one, "trace",
+                      sample=build(curve_trace._sample, "trace_sample"))
+    return CurveKernel(build(_run_tiles, "tiles"), trace_one)
