@@ -20,6 +20,8 @@ TWO_PI = 2.0 * math.pi
 #: the sides a block can be on: the one the left normal N points to, or the other
 SIDES = {"left": 1.0, "right": -1.0}
 CONTACTS = ("one_sided", "two_sided")
+#: joints per curve the kernel takes (core/curve_kernel.py: JOINT, JOINT2)
+MAX_JOINTS = 2
 
 
 def _p(name, units, long_name, constraint="finite", default=None):
@@ -80,9 +82,14 @@ class CurveFamily:
         return arrays
 
     def joint(self, arrays) -> np.ndarray | None:
-        """Where the curvature jumps (steps end there), NaN where it does not;
-        None for a family without joints."""
-        return None if self._joint is None else np.asarray(self._joint(arrays), dtype=np.float64)
+        """Where the curvature jumps (steps end there): rows of joints (at most
+        ``MAX_JOINTS``, in increasing ``p``), NaN where there is none; None
+        for a family without joints."""
+        if self._joint is None:
+            return None
+        joints = np.atleast_2d(np.asarray(self._joint(arrays), dtype=np.float64))
+        assert joints.shape[0] <= MAX_JOINTS
+        return joints
 
     def domain(self, arrays) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self._domain(arrays)
@@ -128,6 +135,10 @@ def _check_clothoid(a):
 
 def _check_loop_track(a):
     radius, blend = np.broadcast_arrays(a["radius"], a["blend_length"])
+    bad = blend < 0
+    if bad.any():
+        raise ConfigError("curve.blend_length", f"must be >= 0 (0: no blend, the curvature "
+                          f"jumps at both ends of the circle), got {float(blend[bad][0])!r}")
     bad = blend >= TWO_PI * radius
     if bad.any():
         raise ConfigError("curve.blend_length", "the blends are too long for the loop: "
@@ -137,6 +148,13 @@ def _check_loop_track(a):
     bad = a["run_length"] < 0
     if bad.any():
         raise ConfigError("curve.run_length", f"must be >= 0, got {float(a['run_length'][bad][0])!r}")
+
+
+def _loop_track_joints(a):
+    """Without a blend, the circle's ends s = L and L + 2 pi R; NaN with one."""
+    bare = a["blend_length"] + 0 * a["radius"] + 0 * a["run_length"] == 0.0
+    start = np.where(bare, a["run_length"] + 0 * a["radius"], np.nan)
+    return np.stack(np.broadcast_arrays(start, start + TWO_PI * a["radius"]))
 
 
 FAMILIES: dict[str, CurveFamily] = {
@@ -185,14 +203,15 @@ FAMILIES: dict[str, CurveFamily] = {
         "clothoid blend of length blend_length (curvature 0 to 1/R), a circle of radius R "
         "(arc 2 pi R - blend_length), the mirrored blend and a flat out-run of length "
         "run_length; curvature continuous, the block inside (side left); the blends cross "
-        "at the loop's foot (a track crossing itself, allowed here)",
+        "at the loop's foot (a track crossing itself, allowed here); blend_length = 0: no "
+        "blend, the curvature jumps at both ends of the circle (two joints)",
         (_p("radius", "m", "radius of the loop's circle", "positive"),
-         _p("blend_length", "m", "arc length of each clothoid blend", "positive"),
+         _p("blend_length", "m", "arc length of each clothoid blend (0: none)"),
          _p("run_length", "m", "length of the flat in-run and of the out-run", default=1.0)),
         core_curves.loop_track_frame, core_curves.loop_track_point,
         lambda a: (np.zeros_like(a["radius"] + a["blend_length"] + a["run_length"]),
                    2.0 * a["run_length"] + a["blend_length"] + TWO_PI * a["radius"]),
-        check=_check_loop_track),
+        check=_check_loop_track, joint=_loop_track_joints),
 }
 
 

@@ -301,6 +301,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})
     joints = joint is not None and bool(np.isfinite(joint).any())
+    joint_rows = [np.nan, np.nan]  # the kernel's two joints per trajectory (NaN: none)
+    if joints:
+        for k, row in enumerate(joint):
+            joint_rows[k] = np.broadcast_to(row, (n,))
     start = flat["s0"]
     off = ~((start >= p_lo) & (start <= p_hi))
     if off.any():
@@ -319,7 +323,8 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
                         (curve_kernel.I_LO, p_lo), (curve_kernel.I_HI, p_hi),
                         (curve_kernel.I_B, flat["drag_linear"]),
                         (curve_kernel.I_C, flat["drag_quadratic"]),
-                        (curve_kernel.I_JOINT, np.broadcast_to(joint, (n,)) if joints else np.nan)):
+                        (curve_kernel.I_JOINT, joint_rows[0]),
+                        (curve_kernel.I_JOINT2, joint_rows[1])):
         inputs[row] = values
     for k, values in enumerate(params):
         inputs[curve_kernel.I_S0 + k] = values

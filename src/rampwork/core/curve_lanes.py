@@ -40,8 +40,8 @@ from . import status as st
 from .control import ERROR_FLOOR
 from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
     B, BRANCH, C, COSNOW, CURV, D, DISP, DPDSNOW, DRAGW, E0, EMPTY, EPREV, FLAG, G, HI, HN,
-    I_B, I_C, I_G, I_HI, I_JOINT, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U,
-    INROW, JOINT, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
+    I_B, I_C, I_G, I_HI, I_JOINT, I_JOINT2, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U,
+    INROW, JOINT, JOINT2, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
     O_DISP, O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U,
     O_W, O_WD, O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1,
     S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, store_frame)
@@ -128,6 +128,7 @@ def _start_lane(lanes, i, inputs, j, shared, h, side):
     lanes[B * LANES + i] = inputs[I_B, j]
     lanes[C * LANES + i] = inputs[I_C, j]
     lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
+    lanes[JOINT2 * LANES + i] = inputs[I_JOINT2, j]
 
 
 def _finish_lane(lanes, i, inputs, shared, out, status):
@@ -203,7 +204,7 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
     q = d * lanes[MUK * LANES + i] * sn
     if JOINTS:
         s3_before = s3
-        s3 = branch(p, d, joint)
+        s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
         lanes[BRANCH * LANES + i] = s3 if free else s3_before
     sin_now = lanes[SINNOW * LANES + i]
     cos_now = lanes[COSNOW * LANES + i]
