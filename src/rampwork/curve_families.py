@@ -228,8 +228,66 @@ SPLINE_MIN_SPEED = 1e-3
 
 SPLINE_FAMILY = CurveFamily(
     "spline", "parametric C2 cubic spline through points (X_k, Y_k) in the chord-length "
-    "parameter t (t_{k+1} = t_k + |P_{k+1} - P_k|); dp/ds = 1 / |r'(t)|", (),
+    "parameter t (t_{k+1} = t_k + |P_{k+1} - P_k|); dp/ds = 1 / |r'(t)|; a population of "
+    "splines, one per row of the points, shares one array (row: which)",
+    (_p("row", "1", "row of the points: which spline of the population", default=0.0),),
     core_curves.spline_curve_frame, core_curves.spline_curve_point, None, position="t")
+
+
+def spline_rows(x_points, y_points) -> tuple[np.ndarray, np.ndarray]:
+    """The points as (rows, n) arrays: each of ``x_points``, ``y_points`` one
+    row of n values (shared by every spline) or one row per spline."""
+    arrays = []
+    for where, values in (("curve.x_points", x_points), ("curve.y_points", y_points)):
+        try:
+            array = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ConfigError(where, "expected numbers: a list, or a list of equally long lists "
+                              "(one per spline)") from None
+        if array.ndim not in (1, 2) or array.size == 0:
+            raise ConfigError(where, "expected a list of numbers, or a list of equally long "
+                              f"lists of them (one per spline), got shape {array.shape}")
+        arrays.append(np.atleast_2d(array))
+    x, y = arrays
+    if x.shape[1] != y.shape[1] or (x.shape[0] != y.shape[0] and 1 not in (x.shape[0], y.shape[0])):
+        raise ConfigError("curve.y_points", f"as many points as x_points (and one row, or as many "
+                          f"rows), got shapes {x.shape} and {y.shape}")
+    rows = max(x.shape[0], y.shape[0])
+    return np.broadcast_to(x, (rows, x.shape[1])), np.broadcast_to(y, (rows, y.shape[1]))
+
+
+def spline_population(x_points, y_points, end="natural", end_tangents=None,
+                      allow_crossing=False) -> np.ndarray:
+    """The ``shared`` data of the splines through each row of the points
+    (:func:`spline_rows`; layout in :mod:`rampwork.core.curves`), each row
+    checked by :func:`spline_shared`; an error names the spline's row."""
+    x, y = spline_rows(x_points, y_points)
+    blocks = []
+    for k in range(x.shape[0]):
+        try:
+            blocks.append(spline_shared(x[k], y[k], end, end_tangents, allow_crossing))
+        except ConfigError as error:
+            if x.shape[0] == 1:
+                raise
+            raise ConfigError(error.where, f"spline {k} (row {k} of the points): "
+                              f"{error.problem}") from None
+    return np.concatenate([[len(blocks), len(blocks[0])], np.concatenate(blocks)])
+
+
+def spline_ends(shared: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The last knot t_{n-1} (the end's p) of the spline of each row."""
+    block = int(shared[1])
+    n = int(shared[2])
+    return shared[2 + rows.astype(np.int64) * block + 1 + n]
+
+
+def check_spline_row(shared: np.ndarray, rows: np.ndarray) -> None:
+    """Every ``row`` names a spline of the population."""
+    count = int(shared[0])
+    bad = ~((rows >= 0) & (rows < count) & (rows == np.round(rows)))
+    if bad.any():
+        raise ConfigError("curve.row", f"must be an integer in [0, {count}) (the splines' rows), "
+                          f"got {float(rows[bad][0])!r}")
 
 
 def spline_shared(x_points, y_points, end="natural", end_tangents=None,

@@ -315,7 +315,7 @@ CURVE_TOP_KEYS = ("title", "s0", "u0", "m", "g", "t_max", "contact", "curve", "f
 #: keys of [curve] besides the family's parameters
 CURVE_KEYS = ("family", "side", "contact")
 #: keys of a spline's [curve] table (family = "spline": Curve.through_points)
-SPLINE_KEYS = ("x_points", "y_points", "end", "end_tangents", "allow_crossing")
+SPLINE_KEYS = ("x_points", "y_points", "end", "end_tangents", "allow_crossing", "row")
 
 
 def curve_from_table(table: dict) -> tuple[Curve, str | None]:
@@ -341,15 +341,21 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
 
 def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
     """A ``[curve]`` table with ``family = "spline"``: the points and end
-    conditions of :meth:`Curve.through_points` (not sweepable)."""
-    from .scenefile import _check_keys, _numbers, _short, _string
+    conditions of :meth:`Curve.through_points`; a list of lists of points
+    is a population, one spline per row, swept by the axis ``row``."""
+    from .scenefile import _check_keys, _number, _numbers, _short, _string
 
     _check_keys("curve", table, CURVE_KEYS + SPLINE_KEYS)
+    args = {}
     for key in ("x_points", "y_points"):
         if key not in table:
             raise ConfigError(f"curve.{key}", "required for family = \"spline\": the points' coordinates (m)")
-    args = {"x_points": _numbers("curve.x_points", table["x_points"]),
-            "y_points": _numbers("curve.y_points", table["y_points"])}
+        value = table[key]
+        rows = isinstance(value, list) and bool(value) and all(isinstance(v, list) for v in value)
+        args[key] = ([_numbers(f"curve.{key}[{k}]", v) for k, v in enumerate(value)] if rows
+                     else _numbers(f"curve.{key}", value))
+    if "row" in table:
+        args["row"] = _number("curve.row", table["row"], sweepable=True)
     if "end" in table:
         args["end"] = _string("curve.end", table["end"])
     if "end_tangents" in table:
@@ -412,11 +418,16 @@ def dump_curve_lines(scene: CurveScene) -> list[str]:
     lines += ["", "[curve]", f"family = {_toml_string(curve.family)}",
               f"side = {_toml_string(curve.side)}"]
     lines += [f"{name} = {_toml_float(f'curve.{name}', value)}" for name, value in curve.params]
-    if curve.points is not None:  # a spline through points
+    if curve.points is not None:  # a spline through points (or a population: rows)
         x_points, y_points, end, tangents, allow_crossing = curve.points
-        lines += [f"x_points = {_toml_array('curve.x_points', x_points)}",
-                  f"y_points = {_toml_array('curve.y_points', y_points)}",
-                  f"end = {_toml_string(end)}"]
+        for key, values in (("x_points", x_points), ("y_points", y_points)):
+            if values and isinstance(values[0], tuple):
+                lines.append(f"{key} = [\n" + "".join(
+                    f"    {_toml_array(f'curve.{key}[{k}]', row)},\n" for k, row in enumerate(values))
+                    + "]")
+            else:
+                lines.append(f"{key} = {_toml_array(f'curve.{key}', values)}")
+        lines.append(f"end = {_toml_string(end)}")
         if tangents is not None:
             lines.append("end_tangents = [" + ", ".join(
                 _toml_array(f"curve.end_tangents[{i}]", pair) for i, pair in enumerate(tangents)) + "]")

@@ -26,11 +26,19 @@ from .core import curve_kernel, curve_lanes, curve_trace, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
 from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
-                             SPLINE_FAMILY, TWO_PI, CurveFamily, convex_cusp_shared, spline_shared)
+                             SPLINE_FAMILY, TWO_PI, CurveFamily, check_spline_row,
+                             convex_cusp_shared, spline_ends, spline_population, spline_shared)
 from .errors import ConfigError
 from .ramps import Ramp
 
 _GRAPH_FAMILIES: dict[str, CurveFamily] = {}
+
+
+def _nested(array: np.ndarray) -> tuple:
+    """A spline's points as given: a tuple of floats, or of rows of them."""
+    if array.ndim > 1:
+        return tuple(tuple(row.tolist()) for row in array)
+    return tuple(array.ravel().tolist())
 
 
 def _graph_family(ramp: Ramp) -> CurveFamily:
@@ -90,19 +98,25 @@ class Curve:
 
     @classmethod
     def through_points(cls, x_points, y_points, *, end: str = "natural", end_tangents=None,
-                       side: str = "left", allow_crossing: bool = False) -> "Curve":
+                       side: str = "left", allow_crossing: bool = False, row: int = 0) -> "Curve":
         """The C2 cubic spline through the points (X_k, Y_k), in the
         chord-length parameter t (``s0`` is a t): ``end`` ``natural`` or
-        ``clamped`` (``end_tangents``: the directions at both ends).  Checked
-        by :func:`rampwork.curve_families.spline_shared`."""
-        data = spline_shared(x_points, y_points, end, end_tangents, allow_crossing)
+        ``clamped`` (``end_tangents``: the directions at both ends).  A
+        population: ``x_points`` and/or ``y_points`` given as one row per
+        spline (lists of equally many points; a single row is shared), one
+        kernel call for all; this curve is spline ``row``, and a sweep over
+        ``row`` (simulate_curve's keyword, a scene's sweep axis) runs them
+        all.  Each spline is checked by
+        :func:`rampwork.curve_families.spline_shared`; an error names its row."""
+        data = spline_population(x_points, y_points, end, end_tangents, allow_crossing)
         side = validate.choice("curve.side", side, tuple(SIDES))
         tangents = (None if end_tangents is None else
                     tuple(tuple(float(v) for v in pair) for pair in np.asarray(end_tangents, dtype=np.float64)))
-        points = (tuple(np.asarray(x_points, dtype=np.float64).ravel().tolist()),
-                  tuple(np.asarray(y_points, dtype=np.float64).ravel().tolist()),
-                  end, tangents if end == "clamped" else None, bool(allow_crossing))
-        return cls("spline", (), side, None, data, points)
+        points = tuple(_nested(np.asarray(values, dtype=np.float64)) for values in (x_points, y_points))
+        params = SPLINE_FAMILY.arrays({"row": row})
+        check_spline_row(data, params["row"])
+        return cls("spline", (("row", float(params["row"][0])),), side, None, tuple(data.tolist()),
+                   points + (end, tangents if end == "clamped" else None, bool(allow_crossing)))
 
     @classmethod
     def convex_cusp(cls, coefficients, end_angles, *, row: int = 0) -> "Curve":
@@ -140,8 +154,9 @@ class Curve:
         if self.ramp is not None:
             return np.array([self.ramp.domain[0]]), np.array([self.ramp.domain[1]])
         if self.family == "spline":
-            n = int(self.data[0])
-            return np.array([0.0]), np.array([self.data[1 + n]])
+            rows = SPLINE_FAMILY.arrays({**dict(self.params), **overrides})["row"]
+            check_spline_row(np.asarray(self.data), rows)
+            return np.zeros_like(rows), spline_ends(np.asarray(self.data), rows)
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
 
     def evaluate(self, p) -> dict[str, np.ndarray]:
@@ -262,11 +277,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     rtol = validate.positive("integrator.rtol", rtol)
     atol = rtol if atol is None else validate.positive("integrator.atol", atol)
     spec = curve.spec
-    fixed = curve.ramp is not None or curve.family == "spline"
+    fixed = curve.ramp is not None
     if fixed and shape:
-        raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (a "
-                          "spline's points are fixed; sweep a wrapped ramp's parameters with "
-                          "rampwork.simulate on the ramp)")
+        raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (sweep "
+                          "a wrapped ramp's parameters with rampwork.simulate on the ramp)")
     arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
@@ -296,7 +310,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
         shared = curve._shared()
     else:
-        lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
+        if curve.family == "spline":  # each case's spline of the population
+            lo, hi = curve.domain(row=params[0])
+        else:
+            lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
         shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})

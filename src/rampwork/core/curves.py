@@ -209,28 +209,34 @@ def loop_track_point(p, p0, p1, p2, p3, shared):
 
 
 # ---------------------------------------------------------------------------
-# parametric cubic spline through points: p = t, the chord-length parameter
+# parametric cubic splines through points: p = t, the chord-length parameter
 # (t_0 = 0, t_{k+1} = t_k + |P_{k+1} - P_k|), so |r'(t)| is near 1 but not 1:
-# dp/ds = 1 / |r'(t)|, the kernel's u * dp_ds.  ``shared`` holds
-# [n, bisection steps, t_0..t_{n-1}, then per piece the power-form
-# coefficients (c0 dt^3 + c1 dt^2 + c2 dt + c3) of X, then of Y]
-# (rampwork.curve_families.spline_shared builds it with scipy's CubicSpline).
+# dp/ds = 1 / |r'(t)|, the kernel's u * dp_ds.  A population of splines (as
+# many points each) shares one array, one row per spline (p0: the row, as
+# the convex cusp's): ``shared`` holds [rows, block, then per row: n,
+# bisection steps, t_0..t_{n-1}, then per piece the power-form coefficients
+# (c0 dt^3 + c1 dt^2 + c2 dt + c3) of X, then of Y]
+# (rampwork.curve_families.spline_population builds it with scipy's CubicSpline).
 
 
 @jit
-def _spline_piece(p, shared):
-    n = int(shared[0])
-    i = _spline_interval(p, shared)
-    return n, 2 + n + 4 * i, 2 + n + 4 * (n - 1) + 4 * i, p - shared[2 + i]
+def _spline_piece(p, p0, shared):
+    """(the row's data, index of the piece's X and Y coefficients, p - t_i)."""
+    row = min(max(int(p0), 0), int(shared[0]) - 1)
+    start = 2 + row * int(shared[1])
+    data = shared[start:start + int(shared[1])]
+    n = int(data[0])
+    i = _spline_interval(p, data)
+    return data, 2 + n + 4 * i, 2 + n + 4 * (n - 1) + 4 * i, p - data[2 + i]
 
 
 @jit
 def spline_curve_frame(p, p0, p1, p2, p3, shared):
-    n, ix, iy, dt = _spline_piece(p, shared)
-    dx = (3.0 * shared[ix] * dt + 2.0 * shared[ix + 1]) * dt + shared[ix + 2]
-    dy = (3.0 * shared[iy] * dt + 2.0 * shared[iy + 1]) * dt + shared[iy + 2]
-    ddx = 6.0 * shared[ix] * dt + 2.0 * shared[ix + 1]
-    ddy = 6.0 * shared[iy] * dt + 2.0 * shared[iy + 1]
+    c, ix, iy, dt = _spline_piece(p, p0, shared)
+    dx = (3.0 * c[ix] * dt + 2.0 * c[ix + 1]) * dt + c[ix + 2]
+    dy = (3.0 * c[iy] * dt + 2.0 * c[iy + 1]) * dt + c[iy + 2]
+    ddx = 6.0 * c[ix] * dt + 2.0 * c[ix + 1]
+    ddy = 6.0 * c[iy] * dt + 2.0 * c[iy + 1]
     speed = math.sqrt(dx * dx + dy * dy)
     inverse = 1.0 / speed
     return dy * inverse, dx * inverse, (dx * ddy - dy * ddx) * (inverse * inverse * inverse), inverse
@@ -238,9 +244,9 @@ def spline_curve_frame(p, p0, p1, p2, p3, shared):
 
 @jit
 def spline_curve_point(p, p0, p1, p2, p3, shared):
-    n, ix, iy, dt = _spline_piece(p, shared)
-    x = ((shared[ix] * dt + shared[ix + 1]) * dt + shared[ix + 2]) * dt + shared[ix + 3]
-    y = ((shared[iy] * dt + shared[iy + 1]) * dt + shared[iy + 2]) * dt + shared[iy + 3]
+    c, ix, iy, dt = _spline_piece(p, p0, shared)
+    x = ((c[ix] * dt + c[ix + 1]) * dt + c[ix + 2]) * dt + c[ix + 3]
+    y = ((c[iy] * dt + c[iy + 1]) * dt + c[iy + 2]) * dt + c[iy + 3]
     return x, y
 
 
