@@ -179,7 +179,7 @@ _KERNELS: dict = {}
 
 
 def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, friction: bool,
-                     drag_linear: bool, drag_quadratic: bool, joints: bool, vector: bool = True):
+                     drag_linear: bool, drag_quadratic: bool, joints: int, vector: bool = True):
     """The compiled lane kernel for these choices (built once per process);
     ``vector=False``: the scalar reference (curve_lanes.build_curve_kernel)."""
     key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic, joints, vector)
@@ -317,7 +317,8 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
         shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})
-    joints = joint is not None and bool(np.isfinite(joint).any())
+    # the kernel's joint count: the family's, where any trajectory has a joint
+    joints = joint.shape[0] if joint is not None and np.isfinite(joint).any() else 0
     joint_rows = [np.nan, np.nan]  # the kernel's two joints per trajectory (NaN: none)
     if joints:
         for k, row in enumerate(joint):

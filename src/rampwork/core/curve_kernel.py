@@ -57,8 +57,8 @@ ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 PI_ALPHA = PI_BETA = REJECT_EXPONENT = 0.0
 # the step takes the frame at its start as its last argument (curve_steppers.py)
 STEP_TAKES_FRAME = True
-JOINTS = False  # the curve has joints (curvature jumps, up to two): steps end there, and
-# the family reads its last shape parameter as the branch (core/curves.py)
+JOINTS = 0  # the curve's joints (curvature jumps, 0 to 2): steps end there, and the
+# family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
 FRICTION = True  # False: mu_k = 0 everywhere, no friction branch
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
@@ -264,8 +264,11 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
         return
     step_size = h_next if t + h_next <= t_max else t_max - t
     q = d * mu_k * sn
-    if JOINTS:
+    if JOINTS > 1:
         s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
+        lanes[BRANCH * LANES + i] = s3
+    elif JOINTS:  # one joint: the only one a step may cross
+        s3 = branch(p, d, joint, math.nan)[0]
         lanes[BRANCH * LANES + i] = s3
     frame = curve_frame(p, s0, s1, s2, s3, shared)
     p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(

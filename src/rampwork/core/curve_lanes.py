@@ -53,7 +53,8 @@ from .threads import current_threads, run_items
 curve_frame = curve_point = try_step = accepted_factor = rejected_factor = None
 rest_rule = contact_sign = None
 start_lane = iterate = finish_lane = vector_step = vector_pass = run_tile = None
-ADAPTIVE = JOINTS = DRAG = False
+ADAPTIVE = DRAG = False
+JOINTS = 0  # the curve's joints (0 to 2)
 ONE_SIDED = True
 VECTOR = True  # False: every step through curve_kernel._iterate (the scalar reference)
 #: vector steps between scalar passes: a lane whose step holds an event waits
@@ -204,7 +205,10 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
     q = d * lanes[MUK * LANES + i] * sn
     if JOINTS:
         s3_before = s3
-        s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
+        if JOINTS > 1:
+            s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
+        else:  # one joint: the only one a step may cross
+            s3 = branch(p, d, joint, math.nan)[0]
         lanes[BRANCH * LANES + i] = s3 if free else s3_before
     sin_now = lanes[SINNOW * LANES + i]
     cos_now = lanes[COSNOW * LANES + i]
@@ -373,22 +377,25 @@ class CurveKernel:
 
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
-                       drag_quadratic: bool = False, joints: bool = False, cache: bool = True,
+                       drag_quadratic: bool = False, joints: int = 0, cache: bool = True,
                        vector: bool = True) -> CurveKernel:
     """The :class:`CurveKernel` of one curve family (``key`` names it uniquely;
     ``frame``, ``point`` its jitted functions) and ``method`` (any
     ``CURVE_STEPPERS`` entry), compiled with only the effects asked for.
-    ``vector=False``: the scalar reference (every step through ``_iterate``)."""
+    ``vector=False``: the scalar reference (every step through ``_iterate``);
+    ``joints``: the curve's joints (0 to 2; with one, the second's logic is
+    compiled out, with none all of it)."""
     if method not in CURVE_STEPPERS:
         raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
     step, _, adaptive, control = CURVE_STEPPERS[method]
     flags = "".join(suffix for on, suffix in (
         (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
-        (drag_quadratic, "_dragc"), (joints, "_joints"), (not vector, "_scalar")) if on)
+        (drag_quadratic, "_dragc"), (joints == 1, "_joints"), (joints > 1, f"_joints{int(joints)}"),
+        (not vector, "_scalar")) if on)
     name = f"curve_{key}_{method}{flags}"
     alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": adaptive, "JOINTS": joints, "FRICTION": friction,
+                 "ADAPTIVE": adaptive, "JOINTS": int(joints), "FRICTION": friction,
                  "DRAG_LINEAR": drag_linear, "DRAG_QUADRATIC": drag_quadratic,
                  "DRAG": drag_linear or drag_quadratic, "VECTOR": vector, "PI_ALPHA": alpha,
                  "PI_BETA": beta, "REJECT_EXPONENT": shrink}
