@@ -582,6 +582,11 @@ class Reference:
         rows = [[f"`{s.name}`", _units(s.units) or "`1`", s.long_name, s.description]
                 for s in schema.TRAJECTORY_RECORD.values()]
         out.append(_table(["name", "units", "long_name", "comment"], rows))
+        out.append("\nA curve scene's recorded trajectories ([physics §5.2](../physics.md#s5-2)) "
+                   "have, over the same dimensions:\n")
+        rows = [[f"`{s.name}`", _units(s.units) or "`1`", s.long_name, s.description]
+                for s in schema.CURVE_RECORD.values()]
+        out.append(_table(["name", "units", "long_name", "comment"], rows))
         out.append("\nThey have the coordinates `traced_index` (the flat index of the trajectory "
                    "in the sweep), `trace_length` (the number of samples recorded) and "
                    "`traced_<axis>` for each swept axis.")

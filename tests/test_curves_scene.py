@@ -112,7 +112,7 @@ def test_curve_examples_are_listed(capsys):
 @pytest.mark.parametrize("change, where, words", [
     ('[ramp]\nfamily = "straight"\nslope = -0.1\ndomain = [0.0, 1.0]\n', "curve", "exactly one"),
     ("x0 = 0.1\n", "x0", "s0"),
-    ("[record]\ncount = 2\n", "record", "[record]"),
+    ("diagnostics = [\"x_lift_off_paper\"]\n", "diagnostics", "diagnostics"),
 ])
 def test_a_curve_scene_refuses_what_is_for_ramps(change, where, words):
     text = (change + LOOP) if not change.startswith("[") else (LOOP + change)

@@ -100,4 +100,4 @@ def test_checks():
     with pytest.raises(ConfigError, match="run_length"):
         Curve.create("loop_track", radius=1.0, blend_length=0.5, run_length=-1.0)
     with pytest.raises(ConfigError, match="blend_length"):
-        Curve.create("loop_track", radius=1.0, blend_length=0.0)
+        Curve.create("loop_track", radius=1.0, blend_length=-0.1)

@@ -21,7 +21,7 @@ import xarray as xr
 from . import runner, schema
 from .core.threads import using_threads
 from .curve_scene import (CASE_ATTRS, CurveScene, _drag_on, _layout, _prepare, attributes, check,
-                          curve_variables)
+                          curve_traces, curve_variables)
 from .scene import Sweep
 
 #: trajectories per chunk where the caller gives none: the curve kernel runs
@@ -46,18 +46,28 @@ class _CurvePrepared:
             return self.run.compute(start, stop)
 
     def traces(self) -> tuple[xr.Dataset, float]:
-        return xr.Dataset(), 0.0  # [record] is refused in curve scenes
+        """The scene's recorded trajectories (``[record]``), each a chunk of
+        one on the whole sweep's kernel, and the seconds they took."""
+        started = time.perf_counter()
+        run = self.run
+
+        def traced(j):
+            values = run.chunk_values(j, j + 1)
+            return run.chunk(j, j + 1, values)[0], values
+
+        traces = curve_traces(run.scene, run.sweep, traced)
+        return traces, time.perf_counter() - started
 
 
 class CurveSweepRun:
     """A checked curve scene over a sweep, run chunk by chunk (see the module)."""
 
     chunk_size = CURVE_CHUNK_SIZE
-    records = False
 
     def __init__(self, scene: CurveScene, sweep: Sweep | None):
         self.sweep = check(scene, sweep)  # every check, on the whole sweep
         self.scene = scene
+        self.records = scene.record.enabled
         self.size = self.sweep.size
         # the whole sweep's kernel (its inputs are dropped: chunks make their own)
         self.kernel = _prepare(scene, self.sweep)[0].kernel

@@ -20,6 +20,8 @@ TWO_PI = 2.0 * math.pi
 #: the sides a block can be on: the one the left normal N points to, or the other
 SIDES = {"left": 1.0, "right": -1.0}
 CONTACTS = ("one_sided", "two_sided")
+#: joints per curve the kernel takes (core/curve_kernel.py: JOINT, JOINT2)
+MAX_JOINTS = 2
 
 
 def _p(name, units, long_name, constraint="finite", default=None):
@@ -80,9 +82,14 @@ class CurveFamily:
         return arrays
 
     def joint(self, arrays) -> np.ndarray | None:
-        """Where the curvature jumps (steps end there), NaN where it does not;
-        None for a family without joints."""
-        return None if self._joint is None else np.asarray(self._joint(arrays), dtype=np.float64)
+        """Where the curvature jumps (steps end there): rows of joints (at most
+        ``MAX_JOINTS``, in increasing ``p``), NaN where there is none; None
+        for a family without joints."""
+        if self._joint is None:
+            return None
+        joints = np.atleast_2d(np.asarray(self._joint(arrays), dtype=np.float64))
+        assert joints.shape[0] <= MAX_JOINTS
+        return joints
 
     def domain(self, arrays) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self._domain(arrays)
@@ -128,6 +135,10 @@ def _check_clothoid(a):
 
 def _check_loop_track(a):
     radius, blend = np.broadcast_arrays(a["radius"], a["blend_length"])
+    bad = blend < 0
+    if bad.any():
+        raise ConfigError("curve.blend_length", f"must be >= 0 (0: no blend, the curvature "
+                          f"jumps at both ends of the circle), got {float(blend[bad][0])!r}")
     bad = blend >= TWO_PI * radius
     if bad.any():
         raise ConfigError("curve.blend_length", "the blends are too long for the loop: "
@@ -137,6 +148,13 @@ def _check_loop_track(a):
     bad = a["run_length"] < 0
     if bad.any():
         raise ConfigError("curve.run_length", f"must be >= 0, got {float(a['run_length'][bad][0])!r}")
+
+
+def _loop_track_joints(a):
+    """Without a blend, the circle's ends s = L and L + 2 pi R; NaN with one."""
+    bare = a["blend_length"] + 0 * a["radius"] + 0 * a["run_length"] == 0.0
+    start = np.where(bare, a["run_length"] + 0 * a["radius"], np.nan)
+    return np.stack(np.broadcast_arrays(start, start + TWO_PI * a["radius"]))
 
 
 FAMILIES: dict[str, CurveFamily] = {
@@ -185,14 +203,15 @@ FAMILIES: dict[str, CurveFamily] = {
         "clothoid blend of length blend_length (curvature 0 to 1/R), a circle of radius R "
         "(arc 2 pi R - blend_length), the mirrored blend and a flat out-run of length "
         "run_length; curvature continuous, the block inside (side left); the blends cross "
-        "at the loop's foot (a track crossing itself, allowed here)",
+        "at the loop's foot (a track crossing itself, allowed here); blend_length = 0: no "
+        "blend, the curvature jumps at both ends of the circle (two joints)",
         (_p("radius", "m", "radius of the loop's circle", "positive"),
-         _p("blend_length", "m", "arc length of each clothoid blend", "positive"),
+         _p("blend_length", "m", "arc length of each clothoid blend (0: none)"),
          _p("run_length", "m", "length of the flat in-run and of the out-run", default=1.0)),
         core_curves.loop_track_frame, core_curves.loop_track_point,
         lambda a: (np.zeros_like(a["radius"] + a["blend_length"] + a["run_length"]),
                    2.0 * a["run_length"] + a["blend_length"] + TWO_PI * a["radius"]),
-        check=_check_loop_track),
+        check=_check_loop_track, joint=_loop_track_joints),
 }
 
 
@@ -209,8 +228,66 @@ SPLINE_MIN_SPEED = 1e-3
 
 SPLINE_FAMILY = CurveFamily(
     "spline", "parametric C2 cubic spline through points (X_k, Y_k) in the chord-length "
-    "parameter t (t_{k+1} = t_k + |P_{k+1} - P_k|); dp/ds = 1 / |r'(t)|", (),
+    "parameter t (t_{k+1} = t_k + |P_{k+1} - P_k|); dp/ds = 1 / |r'(t)|; a population of "
+    "splines, one per row of the points, shares one array (row: which)",
+    (_p("row", "1", "row of the points: which spline of the population", default=0.0),),
     core_curves.spline_curve_frame, core_curves.spline_curve_point, None, position="t")
+
+
+def spline_rows(x_points, y_points) -> tuple[np.ndarray, np.ndarray]:
+    """The points as (rows, n) arrays: each of ``x_points``, ``y_points`` one
+    row of n values (shared by every spline) or one row per spline."""
+    arrays = []
+    for where, values in (("curve.x_points", x_points), ("curve.y_points", y_points)):
+        try:
+            array = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ConfigError(where, "expected numbers: a list, or a list of equally long lists "
+                              "(one per spline)") from None
+        if array.ndim not in (1, 2) or array.size == 0:
+            raise ConfigError(where, "expected a list of numbers, or a list of equally long "
+                              f"lists of them (one per spline), got shape {array.shape}")
+        arrays.append(np.atleast_2d(array))
+    x, y = arrays
+    if x.shape[1] != y.shape[1] or (x.shape[0] != y.shape[0] and 1 not in (x.shape[0], y.shape[0])):
+        raise ConfigError("curve.y_points", f"as many points as x_points (and one row, or as many "
+                          f"rows), got shapes {x.shape} and {y.shape}")
+    rows = max(x.shape[0], y.shape[0])
+    return np.broadcast_to(x, (rows, x.shape[1])), np.broadcast_to(y, (rows, y.shape[1]))
+
+
+def spline_population(x_points, y_points, end="natural", end_tangents=None,
+                      allow_crossing=False) -> np.ndarray:
+    """The ``shared`` data of the splines through each row of the points
+    (:func:`spline_rows`; layout in :mod:`rampwork.core.curves`), each row
+    checked by :func:`spline_shared`; an error names the spline's row."""
+    x, y = spline_rows(x_points, y_points)
+    blocks = []
+    for k in range(x.shape[0]):
+        try:
+            blocks.append(spline_shared(x[k], y[k], end, end_tangents, allow_crossing))
+        except ConfigError as error:
+            if x.shape[0] == 1:
+                raise
+            raise ConfigError(error.where, f"spline {k} (row {k} of the points): "
+                              f"{error.problem}") from None
+    return np.concatenate([[len(blocks), len(blocks[0])], np.concatenate(blocks)])
+
+
+def spline_ends(shared: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The last knot t_{n-1} (the end's p) of the spline of each row."""
+    block = int(shared[1])
+    n = int(shared[2])
+    return shared[2 + rows.astype(np.int64) * block + 1 + n]
+
+
+def check_spline_row(shared: np.ndarray, rows: np.ndarray) -> None:
+    """Every ``row`` names a spline of the population."""
+    count = int(shared[0])
+    bad = ~((rows >= 0) & (rows < count) & (rows == np.round(rows)))
+    if bad.any():
+        raise ConfigError("curve.row", f"must be an integer in [0, {count}) (the splines' rows), "
+                          f"got {float(rows[bad][0])!r}")
 
 
 def spline_shared(x_points, y_points, end="natural", end_tangents=None,

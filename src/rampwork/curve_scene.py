@@ -29,7 +29,7 @@ from .curves import Curve, FAMILIES as CURVE_FAMILIES, prepare_curve_run
 from .core.curve_kernel import CURVE_STEPPERS, OUTPUTS as KERNEL_OUTPUTS
 from .core.threads import current_threads
 from .errors import ConfigError
-from .scene import CONTACTS, Drag, Friction, Integrator, Sweep
+from .scene import CONTACTS, Drag, Friction, Integrator, Record, Sweep
 
 #: sweep axes of a curve scene that are not curve parameters
 CURVE_SCENE_AXES = ("mu", "mu_k", "mu_s", "s0", "u0", "m", "g", "drag_linear", "drag_quadratic")
@@ -46,7 +46,8 @@ class CurveScene:
     start ``s0`` (m of arc length; may be left out when swept) and ``u0``
     (m/s along the curve, > 0 towards larger s), friction, drag, contact,
     integrator (``euler``, ``semi_implicit_euler``, ``rk4``, ``dopri5`` or ``dop853``),
-    ``t_max``, ``m``, ``g``."""
+    ``t_max``, ``m``, ``g``; ``record``: trajectories to record
+    (:func:`curve_traces`)."""
 
     curve: Curve
     friction: Friction = field(default_factory=Friction)
@@ -59,6 +60,7 @@ class CurveScene:
     contact: str = "one_sided"
     title: str = "rampwork curve simulation"
     drag: Drag = field(default_factory=Drag)
+    record: Record = field(default_factory=Record)
 
     def __post_init__(self):
         if not isinstance(self.curve, Curve):
@@ -66,7 +68,8 @@ class CurveScene:
         if self.curve.ramp is not None:
             raise ConfigError("curve", "a ramp y = f(x) runs as a rampwork.Scene (its own kernel); "
                               "a curve scene takes a curve family")
-        for name, kind in (("friction", Friction), ("integrator", Integrator), ("drag", Drag)):
+        for name, kind in (("friction", Friction), ("integrator", Integrator), ("drag", Drag),
+                           ("record", Record)):
             if not isinstance(getattr(self, name), kind):
                 raise ConfigError(name, f"expected a rampwork.{kind.__name__}, got {getattr(self, name)!r}")
         method = self.integrator.method
@@ -120,6 +123,10 @@ def check_sweep(scene: CurveScene, sweep: Sweep) -> None:
     if sweep.size > validate.MAX_TRAJECTORIES:
         raise ConfigError("sweep", f"{sweep.size:.3g} trajectories; at most "
                           f"{validate.MAX_TRAJECTORIES:.0e}")
+    for k, index in enumerate(scene.record.indices or ()):
+        if index >= sweep.size:
+            raise ConfigError(f"record.indices[{k}]", f"{index} is beyond the sweep's "
+                              f"{sweep.size:,} trajectories (flat indices 0 .. {sweep.size - 1:,})")
 
 
 def flat_values(sweep: Sweep) -> dict[str, np.ndarray]:
@@ -181,9 +188,58 @@ def simulate_curve_scene(scene: CurveScene, sweep: Sweep | None = None) -> xr.Da
     data = {name: (dims, array.reshape(shape), schema.spec_attrs(schema.CURVE_OUTPUTS[name]))
             for name, array in variables.items()}
     dataset = xr.Dataset(data, coords=coords)
+    if scene.record.enabled:
+        started = time.perf_counter()
+        def traced(j):  # trajectory j's column alone, on the sweep's kernel
+            one = {name: column[j:j + 1] for name, column in values.items()}
+            alone = replace(run, inputs=np.ascontiguousarray(run.inputs[:, j:j + 1]), shape=(1,))
+            return alone, one
+
+        dataset = dataset.merge(curve_traces(scene, sweep, traced))
+        dataset.attrs["trace_time_s"] = time.perf_counter() - started
     dataset.attrs.update(attributes(scene, sweep, compile_seconds, run_seconds,
                                     int(variables["steps"].sum()), threads=current_threads()))
     return dataset
+
+
+def traced_indices(record: Record, size: int) -> np.ndarray:
+    """The flat indices a ``[record]`` table selects (as for ramp scenes)."""
+    if record.indices:
+        return np.array(record.indices, dtype=np.int64)
+    count = min(record.count, size)
+    return np.unique(np.linspace(0, size - 1, count).round().astype(np.int64))
+
+
+def curve_traces(scene: CurveScene, sweep: Sweep, traced) -> xr.Dataset:
+    """The recorded trajectories of ``scene.record`` (dims ``schema.TRACE_DIMS``,
+    variables ``schema.curve_trace_names``): each a replay of its trajectory
+    alone on the run's own kernel (core/curve_trace.py), whose last sample is
+    the trajectory's outputs bit for bit.  ``traced(j)``: the
+    :class:`~rampwork.curves.CurveRun` of flat trajectory j alone and its
+    sweep values (a chunk of one, on the whole sweep's kernel)."""
+    record = scene.record
+    indices = traced_indices(record, sweep.size)
+    traces, traced_values = [], []
+    for j in indices:
+        run, values = traced(int(j))
+        traces.append(run.trace(0, record.every, record.max_samples))
+        traced_values.append(values)
+    lengths = np.array([t.shape[1] for t in traces], dtype=np.int64)
+    names = schema.curve_trace_names(drag=_drag_on(scene, sweep))
+    samples = np.full((len(names), len(indices), max(int(lengths.max()), 1)), np.nan)
+    for k, trace in enumerate(traces):
+        samples[:, k, :trace.shape[1]] = trace[:len(names)]
+    dims = schema.TRACE_DIMS
+    data = {name: (dims, samples[row], schema.spec_attrs(schema.CURVE_RECORD[name]))
+            for row, name in enumerate(names)}
+    coords = {"traced_index": (dims[0], indices, {"long_name": "flat index of the traced "
+                                                  "trajectory in the sweep", "units": "1"}),
+              "trace_length": (dims[0], lengths, {"long_name": "number of samples recorded",
+                                                  "units": "1"})}
+    for name in sweep.names:
+        coords[f"traced_{name}"] = (dims[0], np.array([float(v[name][0]) for v in traced_values]),
+                                    schema.traced_attrs(name, scene.axis_specs))
+    return xr.Dataset(data, coords=coords)
 
 
 def curve_variables(scene: CurveScene, sweep: Sweep, raw: dict, mu_k, masses,
@@ -255,11 +311,11 @@ def attributes(scene: CurveScene, sweep: Sweep, compile_seconds: float, run_seco
 # ------------------------------------------------------------------------------
 #: top-level keys of a curve scene file
 CURVE_TOP_KEYS = ("title", "s0", "u0", "m", "g", "t_max", "contact", "curve", "friction", "drag",
-                  "integrator", "sweep")
+                  "integrator", "record", "sweep")
 #: keys of [curve] besides the family's parameters
 CURVE_KEYS = ("family", "side", "contact")
 #: keys of a spline's [curve] table (family = "spline": Curve.through_points)
-SPLINE_KEYS = ("x_points", "y_points", "end", "end_tangents", "allow_crossing")
+SPLINE_KEYS = ("x_points", "y_points", "end", "end_tangents", "allow_crossing", "row")
 
 
 def curve_from_table(table: dict) -> tuple[Curve, str | None]:
@@ -285,15 +341,21 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
 
 def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
     """A ``[curve]`` table with ``family = "spline"``: the points and end
-    conditions of :meth:`Curve.through_points` (not sweepable)."""
-    from .scenefile import _check_keys, _numbers, _short, _string
+    conditions of :meth:`Curve.through_points`; a list of lists of points
+    is a population, one spline per row, swept by the axis ``row``."""
+    from .scenefile import _check_keys, _number, _numbers, _short, _string
 
     _check_keys("curve", table, CURVE_KEYS + SPLINE_KEYS)
+    args = {}
     for key in ("x_points", "y_points"):
         if key not in table:
             raise ConfigError(f"curve.{key}", "required for family = \"spline\": the points' coordinates (m)")
-    args = {"x_points": _numbers("curve.x_points", table["x_points"]),
-            "y_points": _numbers("curve.y_points", table["y_points"])}
+        value = table[key]
+        rows = isinstance(value, list) and bool(value) and all(isinstance(v, list) for v in value)
+        args[key] = ([_numbers(f"curve.{key}[{k}]", v) for k, v in enumerate(value)] if rows
+                     else _numbers(f"curve.{key}", value))
+    if "row" in table:
+        args["row"] = _number("curve.row", table["row"], sweepable=True)
     if "end" in table:
         args["end"] = _string("curve.end", table["end"])
     if "end_tangents" in table:
@@ -313,10 +375,10 @@ def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
 
 def scene_from_data(data: dict) -> CurveScene:
     """The :class:`CurveScene` of a parsed scene file with a ``[curve]`` table."""
-    from .scenefile import _check_keys, _number, _string, _table, integrator_from_table
+    from .scenefile import _check_keys, _number, _string, _table, integrator_from_table, record_from_table
 
     _check_keys("", data, CURVE_TOP_KEYS, "; a curve scene starts at s0 with speed u0 along "
-                "the curve (x0, v0, [ramp] and [record] are for ramps y = f(x))")
+                "the curve (x0, v0, [ramp] and diagnostics are for ramps y = f(x))")
     curve, contact = curve_from_table(_table("curve", data["curve"]))
     kwargs: dict = {"curve": curve}
     if contact is not None and "contact" in data:
@@ -338,6 +400,7 @@ def scene_from_data(data: dict) -> CurveScene:
     _check_keys("drag", drag, ("linear", "quadratic"))
     kwargs["drag"] = Drag(**{k: _number(f"drag.{k}", v, sweepable=True) for k, v in drag.items()})
     kwargs["integrator"] = integrator_from_table(_table("integrator", data.get("integrator", {})))
+    kwargs["record"] = record_from_table(_table("record", data.get("record", {})))
     return CurveScene(**kwargs)
 
 
@@ -355,11 +418,16 @@ def dump_curve_lines(scene: CurveScene) -> list[str]:
     lines += ["", "[curve]", f"family = {_toml_string(curve.family)}",
               f"side = {_toml_string(curve.side)}"]
     lines += [f"{name} = {_toml_float(f'curve.{name}', value)}" for name, value in curve.params]
-    if curve.points is not None:  # a spline through points
+    if curve.points is not None:  # a spline through points (or a population: rows)
         x_points, y_points, end, tangents, allow_crossing = curve.points
-        lines += [f"x_points = {_toml_array('curve.x_points', x_points)}",
-                  f"y_points = {_toml_array('curve.y_points', y_points)}",
-                  f"end = {_toml_string(end)}"]
+        for key, values in (("x_points", x_points), ("y_points", y_points)):
+            if values and isinstance(values[0], tuple):
+                lines.append(f"{key} = [\n" + "".join(
+                    f"    {_toml_array(f'curve.{key}[{k}]', row)},\n" for k, row in enumerate(values))
+                    + "]")
+            else:
+                lines.append(f"{key} = {_toml_array(f'curve.{key}', values)}")
+        lines.append(f"end = {_toml_string(end)}")
         if tangents is not None:
             lines.append("end_tangents = [" + ", ".join(
                 _toml_array(f"curve.end_tangents[{i}]", pair) for i, pair in enumerate(tangents)) + "]")

@@ -22,15 +22,23 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import validate
-from .core import curve_kernel, curve_lanes, curves as core_curves
+from .core import curve_kernel, curve_lanes, curve_trace, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
 from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
-                             SPLINE_FAMILY, TWO_PI, CurveFamily, convex_cusp_shared, spline_shared)
+                             SPLINE_FAMILY, TWO_PI, CurveFamily, check_spline_row,
+                             convex_cusp_shared, spline_ends, spline_population, spline_shared)
 from .errors import ConfigError
 from .ramps import Ramp
 
 _GRAPH_FAMILIES: dict[str, CurveFamily] = {}
+
+
+def _nested(array: np.ndarray) -> tuple:
+    """A spline's points as given: a tuple of floats, or of rows of them."""
+    if array.ndim > 1:
+        return tuple(tuple(row.tolist()) for row in array)
+    return tuple(array.ravel().tolist())
 
 
 def _graph_family(ramp: Ramp) -> CurveFamily:
@@ -90,19 +98,25 @@ class Curve:
 
     @classmethod
     def through_points(cls, x_points, y_points, *, end: str = "natural", end_tangents=None,
-                       side: str = "left", allow_crossing: bool = False) -> "Curve":
+                       side: str = "left", allow_crossing: bool = False, row: int = 0) -> "Curve":
         """The C2 cubic spline through the points (X_k, Y_k), in the
         chord-length parameter t (``s0`` is a t): ``end`` ``natural`` or
-        ``clamped`` (``end_tangents``: the directions at both ends).  Checked
-        by :func:`rampwork.curve_families.spline_shared`."""
-        data = spline_shared(x_points, y_points, end, end_tangents, allow_crossing)
+        ``clamped`` (``end_tangents``: the directions at both ends).  A
+        population: ``x_points`` and/or ``y_points`` given as one row per
+        spline (lists of equally many points; a single row is shared), one
+        kernel call for all; this curve is spline ``row``, and a sweep over
+        ``row`` (simulate_curve's keyword, a scene's sweep axis) runs them
+        all.  Each spline is checked by
+        :func:`rampwork.curve_families.spline_shared`; an error names its row."""
+        data = spline_population(x_points, y_points, end, end_tangents, allow_crossing)
         side = validate.choice("curve.side", side, tuple(SIDES))
         tangents = (None if end_tangents is None else
                     tuple(tuple(float(v) for v in pair) for pair in np.asarray(end_tangents, dtype=np.float64)))
-        points = (tuple(np.asarray(x_points, dtype=np.float64).ravel().tolist()),
-                  tuple(np.asarray(y_points, dtype=np.float64).ravel().tolist()),
-                  end, tangents if end == "clamped" else None, bool(allow_crossing))
-        return cls("spline", (), side, None, data, points)
+        points = tuple(_nested(np.asarray(values, dtype=np.float64)) for values in (x_points, y_points))
+        params = SPLINE_FAMILY.arrays({"row": row})
+        check_spline_row(data, params["row"])
+        return cls("spline", (("row", float(params["row"][0])),), side, None, tuple(data.tolist()),
+                   points + (end, tangents if end == "clamped" else None, bool(allow_crossing)))
 
     @classmethod
     def convex_cusp(cls, coefficients, end_angles, *, row: int = 0) -> "Curve":
@@ -140,8 +154,9 @@ class Curve:
         if self.ramp is not None:
             return np.array([self.ramp.domain[0]]), np.array([self.ramp.domain[1]])
         if self.family == "spline":
-            n = int(self.data[0])
-            return np.array([0.0]), np.array([self.data[1 + n]])
+            rows = SPLINE_FAMILY.arrays({**dict(self.params), **overrides})["row"]
+            check_spline_row(np.asarray(self.data), rows)
+            return np.zeros_like(rows), spline_ends(np.asarray(self.data), rows)
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
 
     def evaluate(self, p) -> dict[str, np.ndarray]:
@@ -164,7 +179,7 @@ _KERNELS: dict = {}
 
 
 def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, friction: bool,
-                     drag_linear: bool, drag_quadratic: bool, joints: bool, vector: bool = True):
+                     drag_linear: bool, drag_quadratic: bool, joints: int, vector: bool = True):
     """The compiled lane kernel for these choices (built once per process);
     ``vector=False``: the scalar reference (curve_lanes.build_curve_kernel)."""
     key = (spec.key, method, one_sided, friction, drag_linear, drag_quadratic, joints, vector)
@@ -232,6 +247,16 @@ class CurveRun:
         result["status_name"] = np.array([STATUS_NAMES[int(c)] for c in status]).reshape(self.shape)
         return result
 
+    def trace(self, index: int, every: int = 1, max_samples: int = 20000) -> np.ndarray:
+        """Trajectory ``index`` (flat) recorded: rows ``curve_trace.TRACE_ROWS``
+        (t, s, u, X, Y, W_friction, nu, W_drag), its samples as columns (the
+        start, every ``every`` steps, every event step, the end: at most
+        ``max_samples``); its last column is the batch's outputs, bit for bit."""
+        trace = np.full((len(curve_trace.TRACE_ROWS), max_samples), np.nan)
+        inputs = np.ascontiguousarray(self.inputs[:, index:index + 1])
+        count = self.kernel.trace_one(0, inputs, self.shared, *self.arguments, int(every), trace)
+        return trace[:, :count]
+
 
 def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1.0,
                       method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
@@ -252,11 +277,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     rtol = validate.positive("integrator.rtol", rtol)
     atol = rtol if atol is None else validate.positive("integrator.atol", atol)
     spec = curve.spec
-    fixed = curve.ramp is not None or curve.family == "spline"
+    fixed = curve.ramp is not None
     if fixed and shape:
-        raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (a "
-                          "spline's points are fixed; sweep a wrapped ramp's parameters with "
-                          "rampwork.simulate on the ramp)")
+        raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (sweep "
+                          "a wrapped ramp's parameters with rampwork.simulate on the ramp)")
     arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
@@ -286,11 +310,19 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
         shared = curve._shared()
     else:
-        lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
+        if curve.family == "spline":  # each case's spline of the population
+            lo, hi = curve.domain(row=params[0])
+        else:
+            lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
         shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})
-    joints = joint is not None and bool(np.isfinite(joint).any())
+    # the kernel's joint count: the family's, where any trajectory has a joint
+    joints = joint.shape[0] if joint is not None and np.isfinite(joint).any() else 0
+    joint_rows = [np.nan, np.nan]  # the kernel's two joints per trajectory (NaN: none)
+    if joints:
+        for k, row in enumerate(joint):
+            joint_rows[k] = np.broadcast_to(row, (n,))
     start = flat["s0"]
     off = ~((start >= p_lo) & (start <= p_hi))
     if off.any():
@@ -309,7 +341,8 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
                         (curve_kernel.I_LO, p_lo), (curve_kernel.I_HI, p_hi),
                         (curve_kernel.I_B, flat["drag_linear"]),
                         (curve_kernel.I_C, flat["drag_quadratic"]),
-                        (curve_kernel.I_JOINT, np.broadcast_to(joint, (n,)) if joints else np.nan)):
+                        (curve_kernel.I_JOINT, joint_rows[0]),
+                        (curve_kernel.I_JOINT2, joint_rows[1])):
         inputs[row] = values
     for k, values in enumerate(params):
         inputs[curve_kernel.I_S0 + k] = values

@@ -448,7 +448,12 @@ def _scene(data: dict) -> Scene:
 
     kwargs["integrator"] = integrator_from_table(_table("integrator", data.get("integrator", {})))
 
-    record = _table("record", data.get("record", {}))
+    kwargs["record"] = record_from_table(_table("record", data.get("record", {})))
+    return Scene(**kwargs)
+
+
+def record_from_table(record: dict) -> Record:
+    """The :class:`Record` of a ``[record]`` table (a ramp's or a curve's)."""
     _check_keys("record", record, RECORD_KEYS)
     args = {}
     for key in ("count", "every", "max_samples"):
@@ -459,8 +464,7 @@ def _scene(data: dict) -> Scene:
         if not isinstance(indices, list):
             raise ConfigError("record.indices", f"expected a list of integers, got {_short(indices)}")
         args["indices"] = tuple(_integer(f"record.indices[{i}]", v, 0) for i, v in enumerate(indices))
-    kwargs["record"] = Record(**args)
-    return Scene(**kwargs)
+    return Record(**args)
 
 
 def integrator_from_table(integrator: dict) -> Integrator:
@@ -770,7 +774,8 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False
         raise ConfigError("sweep", f"expected a rampwork.Sweep or None, got {_type_name(sweep)}")
     if isinstance(scene, CurveScene):
         lines = ["# rampwork scene file (TOML): run it with `rampwork run FILE -o OUT.nc`"]
-        lines += dump_curve_lines(scene) + _tail_lines(scene, None, sweep, stored)
+        record = scene.record if scene.record.enabled else None
+        lines += dump_curve_lines(scene) + _tail_lines(scene, record, sweep, stored)
         return "\n".join(lines) + "\n"
     if scene.ramp.family == CALLABLE:
         raise ConfigError("ramp", "a ramp of user functions (Ramp.from_functions) cannot be written "

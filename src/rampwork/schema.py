@@ -35,6 +35,8 @@ __all__ = [
     "output_names",
     "AXES",
     "TRAJECTORY_RECORD",
+    "CURVE_RECORD",
+    "curve_trace_names",
     "TRACE_DIMS",
     "CASE_DIM",
     "STATUS_FLAG_VALUES",
@@ -364,6 +366,30 @@ _TRACE_LIST = (
 
 TRAJECTORY_RECORD: dict[str, VariableSpec] = {s.name: s for s in _TRACE_LIST}
 
+#: recorded trajectories of a curve scene (same dims; trace_<row> for each row
+#: of core/curve_trace.TRACE_ROWS, in that order; trace_W_drag only with drag)
+_CURVE_TRACE_LIST = (
+    TRAJECTORY_RECORD["trace_t"],
+    _f("trace_s", "m", "arc length position along recorded trajectory",
+       "sampled position parameter, as s_end (the arc length, or a curve's own parameter p: "
+       "a spline's chord-length t); NaN past the end"),
+    _f("trace_u", "m s-1", "speed along the curve along recorded trajectory",
+       "sampled ds/dt (signed, > 0 towards larger s); NaN past the end"),
+    _f("trace_X", "m", "horizontal position along recorded trajectory", "sampled X(s); NaN past the end"),
+    _f("trace_Y", "m", "height along recorded trajectory", "sampled Y(s); NaN past the end"),
+    TRAJECTORY_RECORD["trace_W_friction"],
+    _f("trace_nu", "N", "normal force along recorded trajectory",
+       "m times the normal force per unit mass on the block's side at the sample; NaN past the end"),
+    _f("trace_W_drag", "J", "work against air drag along recorded trajectory",
+       "drag work accumulated up to the sample; NaN past the end", present="drag"),
+)
+CURVE_RECORD: dict[str, VariableSpec] = {s.name: s for s in _CURVE_TRACE_LIST}
+
+
+def curve_trace_names(drag: bool = False) -> tuple[str, ...]:
+    """The trace variables of a curve scene, in the rows' order."""
+    return tuple(name for name in CURVE_RECORD if drag or name != "trace_W_drag")
+
 # ----------------------------------------------------------------------------
 # shape optimisation (rampwork.shapes, rampwork.optimise): per candidate of a
 # population and per generation of an optimisation
@@ -458,6 +484,8 @@ def _lookup(name: str, ramp_parameters: Iterable[Any] = ()) -> VariableSpec:
         return CURVE_AXES[name]
     if name in TRAJECTORY_RECORD:
         return TRAJECTORY_RECORD[name]
+    if name in CURVE_RECORD:
+        return CURVE_RECORD[name]
     try:
         return axis_spec(name, ramp_parameters)
     except ConfigError:
@@ -585,7 +613,8 @@ def global_attrs(
 
 
 def _check_registry() -> None:  # import-time sanity check of the tables above
-    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD, CURVE_OUTPUTS, CURVE_AXES, OPTIMISE_OUTPUTS):
+    for table in (OUTPUTS, AXES, TRAJECTORY_RECORD, CURVE_OUTPUTS, CURVE_AXES, CURVE_RECORD,
+                  OPTIMISE_OUTPUTS):
         for key, spec in table.items():
             assert key == spec.name and spec.units and spec.long_name, spec
             np.dtype(spec.dtype)

@@ -57,7 +57,7 @@ ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 PI_ALPHA = PI_BETA = REJECT_EXPONENT = 0.0
 # the step takes the frame at its start as its last argument (curve_steppers.py)
 STEP_TAKES_FRAME = True
-JOINTS = False  # the curve has a joint (a curvature jump): steps end there, and the
+JOINTS = 0  # the curve's joints (curvature jumps, 0 to 2): steps end there, and the
 # family reads its last shape parameter as the branch (core/curves.py)
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
 FRICTION = True  # False: mu_k = 0 everywhere, no friction branch
@@ -72,9 +72,9 @@ OUTPUTS = ("t_end", "p_end", "u_end", "X_end", "Y_end", "W_friction", "W_energy"
  O_PLIFT, O_XLIFT, O_YLIFT, O_NREV, O_STEPS, O_REJECTED) = range(len(OUTPUTS))
 #: rows of the kernel's per-trajectory input
 INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", "p_hi",
-          "drag_b", "drag_c", "p_joint")
+          "drag_b", "drag_c", "p_joint", "p_joint2")
 (I_P, I_U, I_MUK, I_MUS, I_G, I_M, I_S0, I_S1, I_S2, I_S3, I_LO, I_HI, I_B, I_C,
- I_JOINT) = range(len(INPUTS))
+ I_JOINT, I_JOINT2) = range(len(INPUTS))
 # --- a trajectory's state: field F of lane i at lanes[F * LANES + i] (curve_lanes.py) ---
 # P, U: position parameter and signed speed; D, SN: direction and contact sign
 # of the mode; T, HN: time and the next step size; EPREV, REJB: the PI
@@ -87,11 +87,12 @@ INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", 
 # last step; FLAG: 1.0 where the vector loop left the lane's step to the
 # scalar code; then the trajectory's inputs; last SINNOW, KAPNOW, DPDSNOW:
 # with COSNOW the frame at P, as the last step's end evaluated it (the
-# next step's first stage, without joints: the same bits as evaluated anew).
+# next step's first stage, without joints: the same bits as evaluated anew);
+# JOINT2: the second joint (JOINT < JOINT2; NaN: none).
 (P, U, D, SN, T, HN, EPREV, REJB, WORK, CURV, DISP, PATH, PATHX, DRAGW, NUMIN, XNOW,
  COSNOW, STEPS, NREJ, INROW, NREV, PLIFT, STATUS, TRAJ, E0, KAPPA0, BRANCH, FLAG,
- MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW) = range(42)
-N_FIELDS = 42
+ MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW, JOINT2) = range(43)
+N_FIELDS = 43
 #: lanes per block (the vector loop's width); results do not depend on it
 LANES = 64
 #: the empty lane's STATUS
@@ -110,8 +111,8 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
     frame at p1 ``(sin phi, cos phi, kappa, dp/ds)``.  NaN fails every comparison,
     so a non-finite step is not clean.  Reaching an end exactly is not an
     exit (a first-order step from rest does not move p); passing it is.
-    With ``JOINTS``, a step that crosses ``joint`` (a curvature jump; NaN:
-    none) is not clean either: the step is cut to end just past it, so no
+    With ``JOINTS``, a step that crosses ``joint`` (the next curvature jump
+    ahead, :func:`branch`; NaN: none) is not clean either: the step is cut to end just past it, so no
     step integrates across the jump and every method keeps its order."""
     if STEP_TAKES_FRAME:
         p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
@@ -200,11 +201,20 @@ def store_frame(lanes, i, frame):
 
 
 @jit
-def branch(p, d, joint):
-    """JOINTS: the piece a step from p in direction d starts on, or moves
-    into from the joint (the family's p3; 0.0 where there is no joint)."""
-    s3 = d if p == joint else (1.0 if p > joint else -1.0)
-    return 0.0 if joint != joint else s3
+def branch(p, d, joint, joint2):
+    """JOINTS (joints ``joint`` < ``joint2``, NaN: none): ``(s3, ahead)``,
+    s3 the piece a step from p in direction d starts on, or moves into from
+    a joint (the family's p3: 1.0 + the number of joints behind; 0.0 where
+    there is no joint), and ``ahead`` the next joint in direction d (NaN:
+    none), the one the step must not cross."""
+    past = (p > joint) or (p == joint and d > 0.0)
+    past2 = (p > joint2) or (p == joint2 and d > 0.0)
+    s3 = 0.0 if joint != joint else 1.0 + (1.0 if past else 0.0) + (1.0 if past2 else 0.0)
+    if d > 0.0:
+        ahead = joint2 if past else joint
+    else:
+        ahead = joint2 if past2 else (joint if past else math.nan)
+    return s3, ahead
 
 
 def _accepted_factor(err, error_previous, rejected_before):
@@ -254,8 +264,11 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
         return
     step_size = h_next if t + h_next <= t_max else t_max - t
     q = d * mu_k * sn
-    if JOINTS:
-        s3 = branch(p, d, joint)
+    if JOINTS > 1:
+        s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
+        lanes[BRANCH * LANES + i] = s3
+    elif JOINTS:  # one joint: the only one a step may cross
+        s3 = branch(p, d, joint, math.nan)[0]
         lanes[BRANCH * LANES + i] = s3
     frame = curve_frame(p, s0, s1, s2, s3, shared)
     p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(

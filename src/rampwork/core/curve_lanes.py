@@ -35,12 +35,13 @@ import math
 import numpy as np
 
 from . import curve_kernel as ck
+from . import curve_trace
 from . import status as st
 from .control import ERROR_FLOOR
 from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
     B, BRANCH, C, COSNOW, CURV, D, DISP, DPDSNOW, DRAGW, E0, EMPTY, EPREV, FLAG, G, HI, HN,
-    I_B, I_C, I_G, I_HI, I_JOINT, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U,
-    INROW, JOINT, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
+    I_B, I_C, I_G, I_HI, I_JOINT, I_JOINT2, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U,
+    INROW, JOINT, JOINT2, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
     O_DISP, O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U,
     O_W, O_WD, O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1,
     S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, store_frame)
@@ -52,7 +53,8 @@ from .threads import current_threads, run_items
 curve_frame = curve_point = try_step = accepted_factor = rejected_factor = None
 rest_rule = contact_sign = None
 start_lane = iterate = finish_lane = vector_step = vector_pass = run_tile = None
-ADAPTIVE = JOINTS = DRAG = False
+ADAPTIVE = DRAG = False
+JOINTS = 0  # the curve's joints (0 to 2)
 ONE_SIDED = True
 VECTOR = True  # False: every step through curve_kernel._iterate (the scalar reference)
 #: vector steps between scalar passes: a lane whose step holds an event waits
@@ -127,6 +129,7 @@ def _start_lane(lanes, i, inputs, j, shared, h, side):
     lanes[B * LANES + i] = inputs[I_B, j]
     lanes[C * LANES + i] = inputs[I_C, j]
     lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
+    lanes[JOINT2 * LANES + i] = inputs[I_JOINT2, j]
 
 
 def _finish_lane(lanes, i, inputs, shared, out, status):
@@ -202,7 +205,10 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
     q = d * lanes[MUK * LANES + i] * sn
     if JOINTS:
         s3_before = s3
-        s3 = branch(p, d, joint)
+        if JOINTS > 1:
+            s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
+        else:  # one joint: the only one a step may cross
+            s3 = branch(p, d, joint, math.nan)[0]
         lanes[BRANCH * LANES + i] = s3 if free else s3_before
     sin_now = lanes[SINNOW * LANES + i]
     cos_now = lanes[COSNOW * LANES + i]
@@ -354,8 +360,11 @@ class CurveKernel:
     (rows ``curve_kernel.OUTPUTS``) and ``status``, in tiles over
     :func:`threads.current_threads` threads (``threads.using_threads``)."""
 
-    def __init__(self, run_tiles):
+    def __init__(self, run_tiles, trace_one=None):
         self.run_tiles = run_tiles
+        #: ``trace_one(j, inputs, shared, h, t_max, side, rtol, atol, every, trace)``:
+        #: one trajectory recorded (core/curve_trace.py), compiled on first use
+        self.trace_one = trace_one
 
     def __call__(self, inputs, shared, h, t_max, side, rtol, atol, out, status):
         n = inputs.shape[1]
@@ -368,22 +377,25 @@ class CurveKernel:
 
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
-                       drag_quadratic: bool = False, joints: bool = False, cache: bool = True,
+                       drag_quadratic: bool = False, joints: int = 0, cache: bool = True,
                        vector: bool = True) -> CurveKernel:
     """The :class:`CurveKernel` of one curve family (``key`` names it uniquely;
     ``frame``, ``point`` its jitted functions) and ``method`` (any
     ``CURVE_STEPPERS`` entry), compiled with only the effects asked for.
-    ``vector=False``: the scalar reference (every step through ``_iterate``)."""
+    ``vector=False``: the scalar reference (every step through ``_iterate``);
+    ``joints``: the curve's joints (0 to 2; with one, the second's logic is
+    compiled out, with none all of it)."""
     if method not in CURVE_STEPPERS:
         raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
     step, _, adaptive, control = CURVE_STEPPERS[method]
     flags = "".join(suffix for on, suffix in (
         (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
-        (drag_quadratic, "_dragc"), (joints, "_joints"), (not vector, "_scalar")) if on)
+        (drag_quadratic, "_dragc"), (joints == 1, "_joints"), (joints > 1, f"_joints{int(joints)}"),
+        (not vector, "_scalar")) if on)
     name = f"curve_{key}_{method}{flags}"
     alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": adaptive, "JOINTS": joints, "FRICTION": friction,
+                 "ADAPTIVE": adaptive, "JOINTS": int(joints), "FRICTION": friction,
                  "DRAG_LINEAR": drag_linear, "DRAG_QUADRATIC": drag_quadratic,
                  "DRAG": drag_linear or drag_quadratic, "VECTOR": vector, "PI_ALPHA": alpha,
                  "PI_BETA": beta, "REJECT_EXPONENT": shrink}
@@ -409,4 +421,6 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
                             (_finish_lane, "finish_lane"), (_vector_step, "vector_step"),
                             (_vector_pass, "vector_pass"), (_run_tile, "run_tile")):
         constants[bound] = build(template, bound)
-    return CurveKernel(build(_run_tiles, "tiles"))
+    trace_one = build(curve_trace._trace_one, "trace",
+                      sample=build(curve_trace._sample, "trace_sample"))
+    return CurveKernel(build(_run_tiles, "tiles"), trace_one)

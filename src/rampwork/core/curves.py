@@ -52,16 +52,17 @@ def loop_point(p, p0, p1, p2, p3, shared):
 # quarter circle of radius R = p0 curving up to a vertical tangent at
 # s = L + pi R / 2.  The curvature jumps from 0 to 1/R at s = L: a joint.
 #
-# A family with a joint reads p3 as the branch, which the kernel sets per
-# step (curve_kernel.JOINTS): 0.0 decides by p; -1.0 the piece before the
-# joint and +1.0 the one after, each continued smoothly past it, so that no
-# stage of a step that ends at the joint sees the other piece, and a step
-# that starts on the joint sees the piece it moves into.
+# A family with joints reads p3 as the branch, which the kernel sets per
+# step (curve_kernel.JOINTS, curve_kernel.branch): 0.0 decides by p; 1.0 the
+# piece before the first joint, 2.0 the one after it (3.0 after a second
+# joint), each continued smoothly past its ends, so that no stage of a step
+# that ends at a joint sees the other piece, and a step that starts on a
+# joint sees the piece it moves into.
 
 
 @jit
 def quarter_pipe_frame(p, p0, p1, p2, p3, shared):
-    curved = p > p1 if p3 == 0.0 else p3 > 0.0
+    curved = p > p1 if p3 == 0.0 else p3 > 1.5
     sin_theta, cos_theta = vmath.sincos((p - p1) / p0 if curved else 0.0)
     return sin_theta, cos_theta, 1.0 / p0 if curved else 0.0, 1.0
 
@@ -142,6 +143,8 @@ def clothoid_point(p, p0, p1, p2, p3, shared):
 # flat out-run of length L: total turning 2 pi, curvature continuous, so no
 # joint.  The blends' points are the clothoid's (A^2 = b R); the exit blend is
 # the entry one run backwards and mirrored, C(b) - C(b - tau) with Y negated.
+# With b = 0 the curvature jumps at both ends of the circle: two joints, at
+# s = L and L + 2 pi R (curve_families gives them; the branch p3 picks the piece).
 
 
 @jit
@@ -153,6 +156,11 @@ def _track_blend(tau, b, radius):
 def loop_track_frame(p, p0, p1, p2, p3, shared):
     sigma = p - p2
     arc = 2.0 * math.pi * p0 - p1
+    if p3 != 0.0:  # no blend (p1 = 0): two joints, the piece p3 continued (see the pipe)
+        if p3 == 2.0:
+            sin_phi, cos_phi = vmath.sincos(sigma / p0)
+            return sin_phi, cos_phi, 1.0 / p0, 1.0
+        return 0.0, 1.0, 0.0, 1.0
     if sigma <= 0.0:
         return 0.0, 1.0, 0.0, 1.0
     if sigma <= p1:
@@ -174,6 +182,11 @@ def loop_track_point(p, p0, p1, p2, p3, shared):
     arc = 2.0 * math.pi * p0 - p1
     if sigma <= 0.0:
         return p, 0.0
+    if p1 == 0.0:  # no blend: the circle from (L, 0), then the out-run from there
+        if sigma <= arc:
+            half = vmath.sin(0.5 * sigma / p0)
+            return p2 + p0 * vmath.sin(sigma / p0), 2.0 * p0 * (half * half)
+        return p - arc, 0.0
     if sigma <= p1:
         x, y = _track_blend(sigma, p1, p0)
         return p2 + x, y
@@ -196,28 +209,34 @@ def loop_track_point(p, p0, p1, p2, p3, shared):
 
 
 # ---------------------------------------------------------------------------
-# parametric cubic spline through points: p = t, the chord-length parameter
+# parametric cubic splines through points: p = t, the chord-length parameter
 # (t_0 = 0, t_{k+1} = t_k + |P_{k+1} - P_k|), so |r'(t)| is near 1 but not 1:
-# dp/ds = 1 / |r'(t)|, the kernel's u * dp_ds.  ``shared`` holds
-# [n, bisection steps, t_0..t_{n-1}, then per piece the power-form
-# coefficients (c0 dt^3 + c1 dt^2 + c2 dt + c3) of X, then of Y]
-# (rampwork.curve_families.spline_shared builds it with scipy's CubicSpline).
+# dp/ds = 1 / |r'(t)|, the kernel's u * dp_ds.  A population of splines (as
+# many points each) shares one array, one row per spline (p0: the row, as
+# the convex cusp's): ``shared`` holds [rows, block, then per row: n,
+# bisection steps, t_0..t_{n-1}, then per piece the power-form coefficients
+# (c0 dt^3 + c1 dt^2 + c2 dt + c3) of X, then of Y]
+# (rampwork.curve_families.spline_population builds it with scipy's CubicSpline).
 
 
 @jit
-def _spline_piece(p, shared):
-    n = int(shared[0])
-    i = _spline_interval(p, shared)
-    return n, 2 + n + 4 * i, 2 + n + 4 * (n - 1) + 4 * i, p - shared[2 + i]
+def _spline_piece(p, p0, shared):
+    """(the row's data, index of the piece's X and Y coefficients, p - t_i)."""
+    row = min(max(int(p0), 0), int(shared[0]) - 1)
+    start = 2 + row * int(shared[1])
+    data = shared[start:start + int(shared[1])]
+    n = int(data[0])
+    i = _spline_interval(p, data)
+    return data, 2 + n + 4 * i, 2 + n + 4 * (n - 1) + 4 * i, p - data[2 + i]
 
 
 @jit
 def spline_curve_frame(p, p0, p1, p2, p3, shared):
-    n, ix, iy, dt = _spline_piece(p, shared)
-    dx = (3.0 * shared[ix] * dt + 2.0 * shared[ix + 1]) * dt + shared[ix + 2]
-    dy = (3.0 * shared[iy] * dt + 2.0 * shared[iy + 1]) * dt + shared[iy + 2]
-    ddx = 6.0 * shared[ix] * dt + 2.0 * shared[ix + 1]
-    ddy = 6.0 * shared[iy] * dt + 2.0 * shared[iy + 1]
+    c, ix, iy, dt = _spline_piece(p, p0, shared)
+    dx = (3.0 * c[ix] * dt + 2.0 * c[ix + 1]) * dt + c[ix + 2]
+    dy = (3.0 * c[iy] * dt + 2.0 * c[iy + 1]) * dt + c[iy + 2]
+    ddx = 6.0 * c[ix] * dt + 2.0 * c[ix + 1]
+    ddy = 6.0 * c[iy] * dt + 2.0 * c[iy + 1]
     speed = math.sqrt(dx * dx + dy * dy)
     inverse = 1.0 / speed
     return dy * inverse, dx * inverse, (dx * ddy - dy * ddx) * (inverse * inverse * inverse), inverse
@@ -225,9 +244,9 @@ def spline_curve_frame(p, p0, p1, p2, p3, shared):
 
 @jit
 def spline_curve_point(p, p0, p1, p2, p3, shared):
-    n, ix, iy, dt = _spline_piece(p, shared)
-    x = ((shared[ix] * dt + shared[ix + 1]) * dt + shared[ix + 2]) * dt + shared[ix + 3]
-    y = ((shared[iy] * dt + shared[iy + 1]) * dt + shared[iy + 2]) * dt + shared[iy + 3]
+    c, ix, iy, dt = _spline_piece(p, p0, shared)
+    x = ((c[ix] * dt + c[ix + 1]) * dt + c[ix + 2]) * dt + c[ix + 3]
+    y = ((c[iy] * dt + c[iy + 1]) * dt + c[iy + 2]) * dt + c[iy + 3]
     return x, y
 
 
