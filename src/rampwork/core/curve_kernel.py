@@ -125,9 +125,10 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
     it is.  With ``JOINTS``, a step that crosses ``joint`` (a curvature
     jump; NaN: none) is not clean either: the step is cut to end just past
     it, so no step integrates across the jump and every method keeps its
-    order.  ``rough``: clean, yet a stage strictly inside the step has
-    ``s_nu nu <= 0`` (a dip through 0 and back that the end does not see;
-    :func:`_iterate` decides what to do).  ``clean`` looks at the end
+    order.  ``rough``: clean, yet the step's stages before its end (with
+    the parabolas through them, curve_steppers.nu_range) reach
+    ``s_nu nu <= 0``: a dip through 0 and back that the end does not see
+    (:func:`_iterate` decides what to do).  ``clean`` looks at the end
     alone, so the event bisection's predicate stays monotone."""
     if STEP_TAKES_FRAME:
         p1, u1, dw, dk, dx, dwd, err, nu_low, nu_high = curve_step(
