@@ -128,16 +128,8 @@ def test_dome_reversal_then_fall_orders(method):
     assert np.all(np.abs(orders - ORDER[method]) < 0.2), (errors, orders)
 
 
-#: a lift-off the curve kernel misses: nu < 0 only inside one step (it is
-#: checked at the steps' ends), on the loop at u^2 = 4.9 g R with dop853's
-#: steps at rtol 1e-4 (see test_a_dip_of_nu_inside_one_step_is_a_lift_off)
-MISSED_DIP = pytest.mark.xfail(strict=True, reason="a dip of nu below 0 inside one step")
-
-
-@pytest.mark.parametrize("method, rtol", [
-    (method, rtol) if (method, rtol) != ("dop853", 1e-4) else
-    pytest.param(method, rtol, marks=MISSED_DIP)
-    for method in ("dopri5", "dop853") for rtol in (1e-4, 1e-6, 1e-9)])
+@pytest.mark.parametrize("method, rtol", [(method, rtol) for method in ("dopri5", "dop853")
+                                          for rtol in (1e-4, 1e-6, 1e-9)])
 def test_adaptive_pairs_within_ten_times_rtol(method, rtol):
     """The adaptive pair on the loop's lift-off, the dome's reversal and
     fall, the arc with friction and the cycloid from its cusp."""
@@ -158,9 +150,6 @@ def test_adaptive_pairs_within_ten_times_rtol(method, rtol):
     assert out["steps"] < 10 / rtol ** 0.2  # it adapts: ~7 steps at 1e-4, ~50 at 1e-10
 
 
-@pytest.mark.xfail(strict=True, reason="nu is checked at the steps' ends only: a dip below 0 "
-                   "and back inside one step is not seen (the ramp kernel refuses such 'rough' "
-                   "steps, core/adaptive.py; the curve kernel does not yet)")
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
 def test_a_dip_of_nu_inside_one_step_is_a_lift_off(method):
     """u^2 = 4.99 g R at the bottom of the frictionless loop: nu = g (2.99 +

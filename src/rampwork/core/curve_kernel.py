@@ -101,31 +101,50 @@ EMPTY = -1.0
 MAX_EVENTS_IN_ROW = 100
 #: an adaptive step that shrinks below this fraction of the time reached is a divergence
 SMALLEST_STEP = 1e-14
+#: a rough step (a dip of nu inside it, _iterate) is retried at this fraction of
+#: its size (adaptive), or probed there (fixed steps)
+ROUGH_SHRINK = 0.5
+
+
+@jit
+def fresh(lanes, i):
+    """Lane i's next step is its trajectory's first or the first after an
+    event: exempt from the rough-step check, since nu may start from 0 there
+    (a two-sided switch, a start at rest on a vertical tangent) and a
+    stage's rounding would refuse every step size."""
+    return (lanes[STEPS * LANES + i] == 0.0) | (lanes[INROW * LANES + i] > 0.0)
 
 
 def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
               frame):
     """One step from p (``frame``: the curve's frame there) and whether it is
     clean (no event condition fired):
-    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1)``, ``frame1`` the
-    frame at p1 ``(sin phi, cos phi, kappa, dp/ds)``.  NaN fails every comparison,
-    so a non-finite step is not clean.  Reaching an end exactly is not an
-    exit (a first-order step from rest does not move p); passing it is.
-    With ``JOINTS``, a step that crosses ``joint`` (the next curvature jump
-    ahead, :func:`branch`; NaN: none) is not clean either: the step is cut to end just past it, so no
-    step integrates across the jump and every method keeps its order."""
+    ``(p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough)``, ``frame1``
+    the frame at p1 ``(sin phi, cos phi, kappa, dp/ds)``.  NaN fails every
+    comparison, so a non-finite step is not clean.  Reaching an end exactly
+    is not an exit (a first-order step from rest does not move p); passing
+    it is.  With ``JOINTS``, a step that crosses ``joint`` (the next
+    curvature jump ahead, :func:`branch`; NaN: none) is not clean either:
+    the step is cut to end just past it, so no step integrates across the
+    jump and every method keeps its order.  ``rough``: clean, yet the step's
+    stages before its end (with the parabolas through them,
+    curve_steppers.nu_range) reach ``s_nu nu <= 0``: a dip through 0 and
+    back that the end does not see (:func:`_iterate` decides what to do).
+    ``clean`` looks at the end alone, so the event bisection's predicate
+    stays monotone."""
     if STEP_TAKES_FRAME:
-        p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
-                                                 c, rtol, atol, frame)
+        p1, u1, dw, dk, dx, dwd, err, nu_low, nu_high = curve_step(
+            p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame)
     else:
-        p1, u1, dw, dk, dx, dwd, err = curve_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b,
-                                                 c, rtol, atol)
+        p1, u1, dw, dk, dx, dwd, err, nu_low, nu_high = curve_step(
+            p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol)
     frame1 = curve_frame(p1, s0, s1, s2, s3, shared)
     nu1 = normal_along_n(u1, frame1[1], frame1[2], g)
     clean = (d * u1 > 0.0) and (p1 >= p_lo) and (p1 <= p_hi) and (sn * nu1 > 0.0)
     if JOINTS:
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
-    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1
+    rough = clean and ((nu_low <= 0.0) if sn > 0.0 else (nu_high >= 0.0))
+    return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -271,14 +290,33 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
         s3 = branch(p, d, joint, math.nan)[0]
         lanes[BRANCH * LANES + i] = s3
     frame = curve_frame(p, s0, s1, s2, s3, shared)
-    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
         p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
         frame)
+    hi = step_size
+    if rough and not fresh(lanes, i):
+        # a dip of s_nu nu through 0 and back inside the step (docs/physics.md
+        # §5.1): shrink the step until the event shows at a step's end, where
+        # the bisection below locates it on the end's sign alone
+        if ADAPTIVE:
+            if err <= 1.0:  # (a step rejected for its error shrinks as usual, below)
+                lanes[NREJ * LANES + i] += 1.0
+                h_next = step_size * ROUGH_SHRINK
+                lanes[HN * LANES + i] = h_next
+                lanes[REJB * LANES + i] = 1.0
+                if not (h_next > SMALLEST_STEP * max(t, 1.0)):
+                    lanes[STATUS * LANES + i] = st.DIVERGED
+                return
+        elif not try_step(p, u, q, d, sn, ROUGH_SHRINK * step_size, g, s0, s1, s2, s3, shared, b,
+                          c, p_lo, p_hi, joint, rtol, atol, frame)[8]:
+            # a fixed step keeps its size: the shorter step only probes the
+            # dip, and where its end sees it, that is the event to locate
+            clean = False
+            hi = ROUGH_SHRINK * step_size
     if not clean:
         # the event: bisect on the step size to adjacent floats lo < hi,
         # lo clean, hi not, and take the step of size hi
         lo = 0.0
-        hi = step_size
         while True:
             mid = 0.5 * (lo + hi)
             if not (lo < mid < hi):
@@ -289,7 +327,7 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
             else:
                 hi = mid
         step_size = hi
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+        p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
             p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint,
             rtol, atol, frame)
     if ADAPTIVE:

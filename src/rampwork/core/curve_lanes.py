@@ -44,7 +44,8 @@ from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
     INROW, JOINT, JOINT2, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
     O_DISP, O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U,
     O_W, O_WD, O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1,
-    S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, store_frame)
+    S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, fresh,
+    store_frame)
 from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, _stage_from, normal_along_n
 from .jit import fma, jit, specialise
 from .threads import current_threads, run_items
@@ -218,7 +219,7 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
         frame = curve_frame(p, s0, s1, s2, s3, shared)
     else:
         frame = (sin_now, cos_now, kappa_now, dp_ds_now)
-    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1 = try_step(
+    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
         p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
         frame)
     sin1, cos1, kappa1, dp_ds1 = frame1
@@ -231,7 +232,8 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
     finite = (math.isfinite(p1) & math.isfinite(u1) & math.isfinite(dw) & (nu1 == nu1)
               & math.isfinite(dk))
     attempt = free & clean & (t < t_max)
-    fast = attempt & finite & (not (cos_now * cos1 < 0.0))
+    # a rough step (a dip of nu inside it) goes to the scalar code, as there
+    fast = attempt & finite & (not (cos_now * cos1 < 0.0)) & (not (rough & (not fresh(lanes, i))))
     if ADAPTIVE:
         accepted = err <= 1.0
         fast = fast & accepted

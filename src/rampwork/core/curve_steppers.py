@@ -3,12 +3,21 @@
 Each advances ``(p, u)`` by ``h`` within a mode (direction ``d``, signed
 friction ``q = d mu_k s_nu`` fixed) and returns
 
-    (p_new, u_new, friction work, turning, displacement, drag work, error)
+    (p_new, u_new, friction work, turning, displacement, drag work, error,
+     nu_low, nu_high)
 
 the increments of the per-unit-mass integrals ∫ q nu u dt
 (= ∫ mu_k |nu| |u| dt), ∫ kappa d u dt, ∫ u dt and ∫ k u^2 dt, with the
 method's own order, and the step's scaled error norm (an embedded pair's
-estimate against ``atol + rtol |y|``; 0.0 for the fixed-step methods).
+estimate against ``atol + rtol |y|``; 0.0 for the fixed-step methods),
+and the range ``(nu_low, nu_high)`` of the normal force over the step's
+stages before its end (``0 <= c < 1``; +inf and -inf where there are
+none), widened to 0 where :func:`nu_range`'s parabola through three
+stages turns beyond 0 between them (over the wide gaps between the
+stages' nodes): the kernel's check for a dip of ``nu`` through 0 and back
+within one step (curve_kernel._try_step).  Stages at ``c = 1`` are left out: they are
+lower-order predictions of the end, whose ``nu`` may cross 0 a step before
+the solution does.
 ``curve_frame`` and the switches ``FRICTION``, ``DRAG*`` are bound per scene
 by ``jit.specialise``; ``stage`` and ``stage_from`` are this module's
 :func:`_stage` and :func:`_stage_from`, specialised.  Each step's last
@@ -40,6 +49,35 @@ def normal_along_n(u, cos_phi, kappa, g):
     cycloid's cusp the curvature is infinite and inf * 0 would be NaN."""
     centripetal = kappa * (u * u)
     return fma(g, cos_phi, centripetal if u != 0.0 else 0.0)
+
+
+#: the nodes c (fractions of the step) of dopri5's stages 2..5 and of
+#: DOP853's stages 2..11: the stages strictly inside a step
+C_DOPRI5 = (0.2, 0.3, 0.8, 8.0 / 9.0)
+(C2, C3, C4, C5, C6, C7, C8, C9, C10, C11) = (sum(A2), sum(A3), sum(A4), sum(A5), sum(A6),
+                                              sum(A7), sum(A8), sum(A9), sum(A10), sum(A11))
+
+
+@jit
+def nu_range(x0, y0, x1, y1, x2, y2, low, high):
+    """``(low, high)`` widened by what three stages' values say of nu over
+    [x0, x2] (x0 < x1 < x2, fractions of the step): the values, and 0 where
+    the parabola through them turns inside (its slopes at x0 and x2 differ
+    in sign) beyond 0 (a minimum <= 0: low; a maximum >= 0: high).  So a
+    dip of nu through 0 and back between two stages shows, though no stage
+    sees it.  (Its vertex y1 - slope^2 / (4 a) is compared without dividing.)"""
+    d1 = (y1 - y0) * (1.0 / (x1 - x0))
+    d2 = (y2 - y1) * (1.0 / (x2 - x1))
+    a = (d2 - d1) * (1.0 / (x2 - x0))
+    slope = fma(a, x1 - x0, d1)  # at x1
+    turns = fma(2.0 * a, x0 - x1, slope) * fma(2.0 * a, x2 - x1, slope) <= 0.0
+    # the vertex is <= 0 for a > 0 (>= 0 for a < 0) iff 4 a y1 <= slope^2
+    crosses = turns & (4.0 * a * y1 <= slope * slope)
+    low = min(min(low, y0), min(y1, y2))
+    high = max(max(high, y0), max(y1, y2))
+    low = min(low, 0.0) if crosses & (a > 0.0) else low
+    high = max(high, 0.0) if crosses & (a < 0.0) else high
+    return low, high
 
 
 def _stage(p, u, q, d, g, s0, s1, s2, s3, shared, b, c):
@@ -74,14 +112,16 @@ def _stage_from(frame, u, q, d, g, b, c):
 def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     a, nu, turn, dp_ds, power = stage_from(frame, u, q, d, g, b, c)
     work = h * q * nu * u if FRICTION else 0.0
-    return fma(h, u * dp_ds, p), fma(h, a, u), work, h * d * turn, h * u, h * power, 0.0
+    return (fma(h, u * dp_ds, p), fma(h, a, u), work, h * d * turn, h * u, h * power, 0.0,
+            math.inf, -math.inf)
 
 
 def _semi_implicit_euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     a, nu, turn, dp_ds, power = stage_from(frame, u, q, d, g, b, c)
     u_new = fma(h, a, u)
     work = h * q * nu * u if FRICTION else 0.0
-    return fma(h, u_new * dp_ds, p), u_new, work, h * d * turn, h * u_new, h * power, 0.0
+    return (fma(h, u_new * dp_ds, p), u_new, work, h * d * turn, h * u_new, h * power, 0.0,
+            math.inf, -math.inf)
 
 
 def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
@@ -100,7 +140,9 @@ def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame)
     curvature = d * sixth * (k1 + 2.0 * (k2 + k3) + k4)
     displacement = sixth * (u + 2.0 * (u2 + u3) + u4)
     drag = sixth * (pd1 + 2.0 * (pd2 + pd3) + pd4) if DRAG else 0.0
-    return p_new, u_new, work, curvature, displacement, drag, 0.0
+    # the midpoint stages (c = 1/2); the 4th (c = 1) predicts the end to first order
+    return (p_new, u_new, work, curvature, displacement, drag, 0.0, min(nu2, nu3),
+            max(nu2, nu3))
 
 
 def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
@@ -150,14 +192,23 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
         err_d = h * _error6(pd1, pd3, pd4, pd5, pd6, pd7) / fma(rtol, abs(drag), atol)
         squares += err_d * err_d
         count += 1.0
-    return p7, u7, work, turn, displacement, drag, math.sqrt(squares / count)
+    # stages 1..5 (c = 0, 1/5, 3/10, 4/5, 8/9; 6 and 7 are at c = 1), with
+    # the parabola over the wide gap from 3/10 to 4/5 (one over each gap
+    # cost 27 % of the time per step on a wrapped ramp, this one 1 %)
+    _, c3, c4, c5 = C_DOPRI5
+    nu_low = min(min(n1, n2), min(n3, min(n4, n5)))
+    nu_high = max(max(n1, n2), max(n3, max(n4, n5)))
+    nu_low, nu_high = nu_range(c3, n3, c4, n4, c5, n5, nu_low, nu_high)
+    return p7, u7, work, turn, displacement, drag, math.sqrt(squares / count), nu_low, nu_high
 
 
 def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame):
     """DOP853's stages 1..12 (core/dop853.py's tableau): 12-tuples of
-    (dp/dt, du/dt, nu u, kappa u, drag power) over the stages.  The new state
-    uses stages 1 and 6..12 only, so the 13th (at the new state, which the
-    ramp kernel carries over to the next step) is not evaluated here."""
+    (dp/dt, du/dt, nu u, kappa u, speed, drag power) over the stages, and the
+    range of nu over stages 1..11 (0 <= c < 1; the 12th is at c = 1), as
+    :func:`_dop853_nu_range` takes it.  The new state uses stages 1 and
+    6..12 only, so the 13th (at the new state, which the ramp kernel carries
+    over to the next step) is not evaluated here."""
     a1, n1, k1, r1, pd1 = stage_from(frame, u, q, d, g, b, c)
     v1 = u * r1
     p2 = fma(h, _dot1(A2, v1), p)
@@ -204,13 +255,29 @@ def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame):
     u12 = fma(h, _dot9(A12, a1, a4, a5, a6, a7, a8, a9, a10, a11), u)
     a12, n12, k12, r12, pd12 = stage(p12, u12, q, d, g, s0, s1, s2, s3, shared, b, c)
     v12 = u12 * r12
+    nu_low, nu_high = _dop853_nu_range(n1, n2, n3, n4, n5, n6, n7, n8, n9, n10, n11)
     return ((v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12),
             (a1, a2, a3, a4, a5, a6, a7, a8, a9, a10, a11, a12),
             (n1 * u, n2 * u2, n3 * u3, n4 * u4, n5 * u5, n6 * u6, n7 * u7, n8 * u8, n9 * u9,
              n10 * u10, n11 * u11, n12 * u12),
             (k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12),
             (u, u2, u3, u4, u5, u6, u7, u8, u9, u10, u11, u12),
-            (pd1, pd2, pd3, pd4, pd5, pd6, pd7, pd8, pd9, pd10, pd11, pd12))
+            (pd1, pd2, pd3, pd4, pd5, pd6, pd7, pd8, pd9, pd10, pd11, pd12),
+            nu_low, nu_high)
+
+
+@jit
+def _dop853_nu_range(n1, n2, n3, n4, n5, n6, n7, n8, n9, n10, n11):
+    """The range of nu over DOP853's stages 1..11 (c from 0 to 0.857), with
+    :func:`nu_range`'s parabolas over the two wide gaps between them (c =
+    0.333 to 0.6 and 0.651 to 0.857; below 0.333 seven stages lie within
+    0.13 of each other).  Parabolas over every gap cost dop853 15-20 % of
+    its time per step (benchmarks/rough_steps.py), these two ~0 %."""
+    low = min(min(min(n1, n2), min(n3, n4)), min(min(n5, n6), min(n7, n8)))
+    high = max(max(max(n1, n2), max(n3, n4)), max(max(n5, n6), max(n7, n8)))
+    low, high = nu_range(C6, n6, C10, n10, C9, n9, low, high)
+    return nu_range(C10, n10, C9, n9, C11, n11, low, high)
+
 
 
 def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
@@ -219,7 +286,7 @@ def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
     err5^2 / sqrt(n (err5^2 + 0.01 err3^2)) over the n scaled components
     p, u and the friction work (and the drag work with drag), each against
     atol + rtol |y| as in :func:`_dopri5_step`."""
-    velocities, accelerations, works, turns, speeds, powers = stage_rates(
+    velocities, accelerations, works, turns, speeds, powers, nu_low, nu_high = stage_rates(
         p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame)
     p_new = fma(h, _weigh8(velocities), p)
     u_new = fma(h, _weigh8(accelerations), u)
@@ -254,7 +321,7 @@ def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
         count += 1.0
     denominator = fma(0.01, squares3, squares5)
     error = squares5 / math.sqrt(count * denominator) if denominator > 0.0 else 0.0
-    return p_new, u_new, work, turn, displacement, drag, error
+    return p_new, u_new, work, turn, displacement, drag, error, nu_low, nu_high
 
 
 #: method name -> (step template, order, adaptive, step-size control): the
