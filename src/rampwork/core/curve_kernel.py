@@ -15,9 +15,10 @@ other), and ``s_nu nu`` reaching 0 is lift-off; two-sided: a sign change of
 ``nu`` is an event that flips ``s_nu``.
 
 Events (a stop, lift-off or a contact switch, an exit, a non-finite state) are
-located inside the step by bisection on the step size with the scene's own
-method, to rounding: the largest clean step size and the smallest that is
-not are adjacent floats, and the step of the latter is committed.  Then the
+located inside the step on the step size with the scene's own method, to
+rounding: the largest clean step size and the smallest that is not are
+adjacent floats, and the step of the latter is committed (secant guesses
+on the failing condition, bisection as the safeguard: :func:`_locate_event`).  Then the
 rest rule (§5) decides at a stop.
 
 This module holds a trajectory's scalar parts, on the lane state of
@@ -51,6 +52,9 @@ from .jit import fma, jit
 # bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
 curve_frame = curve_point = curve_step = try_step = rest_rule = None
 contact_sign = x_travelled = accepted_factor = rejected_factor = None
+locate_event = event_guess = None
+#: the event locator's least push past a guess, relative to it (2 ulps or so)
+PUSH_ULPS = 2.0 ** -51
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 # the pair's PI gains (control.PI_DOPRI5, PI_DOP853) and the exponent of a
 # rejected step's shrink factor (1 / order)
@@ -145,6 +149,93 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
     rough = clean and ((nu_low <= 0.0) if sn > 0.0 else (nu_high >= 0.0))
     return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough
+
+
+def _event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight_hi, p, d, sn,
+                 p_lo, p_hi, joint):
+    """Where the first event condition that fails at step size ``hi`` (and
+    holds at ``lo``) crosses 0, by the secant through its values at the two
+    (``lo_*``, ``hi_*``: p, u and nu at the ends of those steps; each end's
+    value times its ``weight``, the Illinois method's): the earliest such
+    crossing, or inf where no condition's secant says (a non-finite step,
+    a condition this does not model)."""
+    best = math.inf
+    span = hi - lo
+    # each condition's value: > 0 (>= 0 for the ends) where it holds, as _try_step
+    for value_lo, value_hi, fails in (
+            (d * lo_u, d * hi_u, not (d * hi_u > 0.0)),
+            (sn * lo_nu, sn * hi_nu, not (sn * hi_nu > 0.0)),
+            (p_hi - lo_p, p_hi - hi_p, not (hi_p <= p_hi)),
+            (lo_p - p_lo, hi_p - p_lo, not (hi_p >= p_lo)),
+            ((lo_p - joint) * (p - joint), (hi_p - joint) * (p - joint),
+             (p - joint) * (hi_p - joint) < 0.0 if JOINTS else False)):
+        if fails and value_lo > 0.0:
+            a = weight_lo * value_lo
+            guess = lo + span * (a / (a - weight_hi * value_hi))
+            if guess < best:
+                best = guess
+    return best
+
+
+def _locate_event(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
+                  atol, frame, step_h):
+    """The event inside the step of size ``h`` from p (``step_h``: that
+    step, not clean): ``(hi, step)``: the step size hi and its step,
+    with lo < hi adjacent floats, lo's step clean (0 at first) and hi's
+    not.  The same bracket as bisection gives where cleanness switches once
+    over the step (a switch that flickers within rounding may come out an
+    ulp apart), found in fewer steps: each trial is the Illinois method's
+    secant guess on the failing condition (its values at the bracket's ends;
+    a side kept twice in a row has its value halved), pushed past the guess
+    towards the end that did not move last by the guess's last change, at
+    least PUSH_ULPS of it, so that the bracket closes from both sides (a
+    plain secant closes one side and then crawls: ~50 trials, bisection's
+    count, on a linear condition such as Euler's reversal); a plain
+    bisection where the guess is not strictly inside or the bracket has not
+    halved over the last two trials.  Every trial is a whole step of the
+    scene's method, so the bracket is exact whatever the method's error."""
+    lo = 0.0
+    hi = h
+    lo_p, lo_u = p, u
+    lo_nu = normal_along_n(u, frame[1], frame[2], g)
+    hi_p, hi_u, hi_nu = step_h[0], step_h[1], step_h[7]
+    weight_lo = weight_hi = 1.0
+    moved = 0.0  # +1.0: lo moved last, -1.0: hi did
+    width_before = width_last = math.inf
+    guess_before = math.nan
+    while True:
+        mid = 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            break
+        trial = mid
+        if hi - lo <= 0.5 * width_before:
+            guess = event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo,
+                                 weight_hi, p, d, sn, p_lo, p_hi, joint)
+            if lo < guess < hi:
+                # past the guess by its last change (a few ulps at least),
+                # towards the end that stayed: the bracket closes from both sides
+                push = abs(guess - guess_before)
+                push = max(push if push == push else 0.0, abs(guess) * PUSH_ULPS)
+                trial = guess + push if moved > 0.0 else guess - push
+                if not (lo < trial < hi):
+                    trial = guess
+                guess_before = guess
+        width_before = width_last
+        width_last = hi - lo
+        step = try_step(p, u, q, d, sn, trial, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
+                        joint, rtol, atol, frame)
+        if step[8]:
+            lo, lo_p, lo_u, lo_nu = trial, step[0], step[1], step[7]
+            weight_lo = 1.0
+            weight_hi = 0.5 * weight_hi if moved > 0.0 else 1.0
+            moved = 1.0
+        else:
+            hi, hi_p, hi_u, hi_nu = trial, step[0], step[1], step[7]
+            step_h = step
+            weight_hi = 1.0
+            weight_lo = 0.5 * weight_lo if moved < 0.0 else 1.0
+            moved = -1.0
+    return hi, step_h
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -307,29 +398,20 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
                 if not (h_next > SMALLEST_STEP * max(t, 1.0)):
                     lanes[STATUS * LANES + i] = st.DIVERGED
                 return
-        elif not try_step(p, u, q, d, sn, ROUGH_SHRINK * step_size, g, s0, s1, s2, s3, shared, b,
-                          c, p_lo, p_hi, joint, rtol, atol, frame)[8]:
+        else:
             # a fixed step keeps its size: the shorter step only probes the
             # dip, and where its end sees it, that is the event to locate
-            clean = False
-            hi = ROUGH_SHRINK * step_size
+            probe = try_step(p, u, q, d, sn, ROUGH_SHRINK * step_size, g, s0, s1, s2, s3, shared,
+                             b, c, p_lo, p_hi, joint, rtol, atol, frame)
+            if not probe[8]:
+                hi = ROUGH_SHRINK * step_size
+                p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = probe
     if not clean:
-        # the event: bisect on the step size to adjacent floats lo < hi,
-        # lo clean, hi not, and take the step of size hi
-        lo = 0.0
-        while True:
-            mid = 0.5 * (lo + hi)
-            if not (lo < mid < hi):
-                break
-            if try_step(p, u, q, d, sn, mid, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
-                        joint, rtol, atol, frame)[8]:
-                lo = mid
-            else:
-                hi = mid
-        step_size = hi
-        p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
-            p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint,
-            rtol, atol, frame)
+        # the event: the step size hi of the first step that is not clean
+        # (the one before it, lo, adjacent, is), and that step
+        step_size, (p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough) = locate_event(
+            p, u, q, d, sn, hi, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
+            atol, frame, (p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough))
     if ADAPTIVE:
         if not (err <= 1.0):  # rejected (NaN included): shrink and try again
             lanes[NREJ * LANES + i] += 1.0

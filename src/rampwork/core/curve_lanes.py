@@ -16,7 +16,7 @@ and for an adaptive pair an error norm <= 1 (a rejected clean attempt is
 also taken here).  A clean step is committed by selects, with the
 arithmetic of the scalar code in the same order; any other step freezes
 the lane (FLAG) until the next scalar pass, where ``curve_kernel._iterate``
-takes it in full: the event located by bisection on the step size, the
+takes it in full: the event located on the step size, the
 rest rule, lift-off, exits, divergence.  Every ``SUBSTEPS`` vector steps a
 scalar pass resolves frozen lanes, writes finished trajectories out and
 refills their lanes from the tile; once the tile has nothing left to load,
@@ -417,6 +417,7 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     constants["try_step"] = build(ck._try_step, "try")
     for template, bound in ((ck._rest_rule, "rest_rule"), (ck._contact_sign, "contact_sign"),
                             (ck._x_travelled, "x_travelled"),
+                            (ck._event_guess, "event_guess"), (ck._locate_event, "locate_event"),
                             (ck._accepted_factor, "accepted_factor"),
                             (ck._rejected_factor, "rejected_factor"),
                             (_start_lane, "start_lane"), (ck._iterate, "iterate"),
