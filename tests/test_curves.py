@@ -345,13 +345,19 @@ def test_wrapped_ramps_agree_with_the_ramp_kernel_rk4(ramp):
     _compare_wrapped(ramp, "rk4", seed=7)
 
 
+#: every method on one wrapped family in the default suite, on two more in the slow
+#: suite (each case compiles a ramp and a curve kernel variant; RK4 runs on all)
+WRAPPED_METHOD_FAMILIES = [WRAPPED[1]] + [pytest.param(r, marks=pytest.mark.slow)
+                                          for r in (WRAPPED[3], WRAPPED[5])]
+
+
 @pytest.mark.parametrize("method", ["euler", "semi_implicit_euler"])
-@pytest.mark.parametrize("ramp", [WRAPPED[1], WRAPPED[3], WRAPPED[5]], ids=lambda r: r.family)
+@pytest.mark.parametrize("ramp", WRAPPED_METHOD_FAMILIES, ids=lambda r: r.family)
 def test_wrapped_ramps_agree_with_the_ramp_kernel_first_order(ramp, method):
     _compare_wrapped(ramp, method, seed=11)
 
 
-@pytest.mark.parametrize("ramp", [WRAPPED[1], WRAPPED[3], WRAPPED[5]], ids=lambda r: r.family)
+@pytest.mark.parametrize("ramp", WRAPPED_METHOD_FAMILIES, ids=lambda r: r.family)
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
 def test_wrapped_ramps_agree_with_the_ramp_kernel_adaptive(ramp, method):
     _compare_wrapped(ramp, method, seed=5)

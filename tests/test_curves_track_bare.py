@@ -65,9 +65,12 @@ def test_geometry_two_curvature_jumps_and_a_continuous_track():
         Curve.create("loop_track", radius=1.0, blend_length=-0.1)
 
 
-FRICTIONLESS = [("euler", {"dt": 1e-5}, 2e-3), ("semi_implicit_euler", {"dt": 1e-5}, 2e-3),
+# the first-order methods and dop853 frictionless in the slow suite (the friction
+# tests below run Euler-type and the pairs through both joints in the default one)
+FRICTIONLESS = [pytest.param("euler", {"dt": 1e-5}, 2e-3, marks=pytest.mark.slow),
+                pytest.param("semi_implicit_euler", {"dt": 1e-5}, 2e-3, marks=pytest.mark.slow),
                 ("rk4", {"dt": 1e-3}, 1e-9), ("dopri5", {"rtol": 1e-10}, 1e-7),
-                ("dop853", {"rtol": 1e-10}, 1e-7)]
+                pytest.param("dop853", {"rtol": 1e-10}, 1e-7, marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("method, settings, tol", FRICTIONLESS)
