@@ -388,7 +388,7 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
     if rough and not fresh(lanes, i):
         # a dip of s_nu nu through 0 and back inside the step (docs/physics.md
         # §5.1): shrink the step until the event shows at a step's end, where
-        # the bisection below locates it on the end's sign alone
+        # locate_event below finds it on the end's sign alone
         if ADAPTIVE:
             if err <= 1.0:  # (a step rejected for its error shrinks as usual, below)
                 lanes[NREJ * LANES + i] += 1.0
