@@ -340,10 +340,7 @@ def _compare_wrapped(ramp, method, seed):
     return ds
 
 
-# RK4 on the three families whose kernels the coverage test below compiles anyway in
-# the default suite, on the other four in the slow suite
-@pytest.mark.parametrize("ramp", [r if i in (1, 3, 5) else pytest.param(r, marks=pytest.mark.slow)
-                                  for i, r in enumerate(WRAPPED)], ids=lambda r: r.family)
+@pytest.mark.parametrize("ramp", WRAPPED, ids=lambda r: r.family)
 def test_wrapped_ramps_agree_with_the_ramp_kernel_rk4(ramp):
     _compare_wrapped(ramp, "rk4", seed=7)
 
