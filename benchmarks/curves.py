@@ -138,7 +138,8 @@ def curve_run(case: str, method: str, args, x0, v0, mu, vector: bool = True):
     else:
         raise SystemExit(f"unknown case {case!r}: graph:FAMILY or arc:circular_bowl")
     return prepare_curve_run(curve, s0=s0, u0=u0, mu_k=mu, g=G, method=method, dt=args.dt,
-                             t_max=args.t_max, rtol=args.rtol, vector=vector)
+                             t_max=args.t_max, rtol=args.rtol, vector=vector,
+                             kernel="specialised")
 
 
 def time_curve(run, cpu_time: bool, threads: int = 1):

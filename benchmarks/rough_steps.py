@@ -74,7 +74,7 @@ def prepared_runs(args):
         for contact in ("one_sided", "two_sided"):
             yield f"loop:{contact}/{method}", prepare_curve_run(
                 loop, s0=0.0, u0=u0, mu_k=loop_mu, method=method, dt=args.dt, rtol=args.rtol,
-                t_max=args.t_max, contact=contact)
+                t_max=args.t_max, contact=contact, kernel="specialised")
 
 
 def child(args):

@@ -144,7 +144,7 @@ def test_adaptive_pairs_within_ten_times_rtol_across_the_joints(method, rtol):
 
 def test_blended_tracks_compile_without_joints_and_a_mixed_sweep_is_bit_for_bit():
     blended = prepare_curve_run(Curve.create("loop_track", radius=1.0, blend_length=0.4),
-                                s0=0.0, u0=9.0, mu_k=0.1)
+                                s0=0.0, u0=9.0, mu_k=0.1, kernel="specialised")
     spec = blended.kernel  # the kernel without the joint logic, as before joints were two
     assert spec is curve_kernel_for(Curve.create("loop_track", radius=1.0, blend_length=0.4).spec,
                                     "rk4", one_sided=True, friction=True, drag_linear=False,

@@ -33,10 +33,10 @@ class _CurvePrepared:
     """:class:`rampwork.sweepruns.PreparedSweep` of a curve scene."""
 
     kernel_source = None
-    tier = "curve"
 
     def __init__(self, run: "CurveSweepRun"):
         self.run = run
+        self.tier = run.tier
         started = time.perf_counter()
         run.chunk(0, 1)[0].compile()
         self.compile_seconds = time.perf_counter() - started
@@ -69,8 +69,13 @@ class CurveSweepRun:
         self.scene = scene
         self.records = scene.record.enabled
         self.size = self.sweep.size
-        # the whole sweep's kernel (its inputs are dropped: chunks make their own)
-        self.kernel = _prepare(scene, self.sweep)[0].kernel
+        self.choose_kernel(None)
+
+    def choose_kernel(self, kernel: str | None) -> None:
+        """The whole sweep's kernel and its tier (``kernel``: as for
+        rampwork.simulate); its inputs are dropped: chunks make their own."""
+        run = _prepare(self.scene, self.sweep, kernel)[0]
+        self.kernel, self.tier = run.kernel, run.tier
 
     def check_shippable(self) -> None:
         """Every curve scene can be rebuilt from its text."""
@@ -99,12 +104,14 @@ class CurveSweepRun:
         return runner.DatasetLayout(("case",), shape, attrs, coords, sweep.names + ("case",))
 
     def prepare(self, kernel: str | None = None) -> _CurvePrepared:
+        if kernel is not None:
+            self.choose_kernel(kernel)
         return _CurvePrepared(self)
 
     def attributes(self, compile_seconds, run_seconds, threads, steps, entry,
                    kernel_source=None, kernel_tier=None) -> dict:
         return attributes(self.scene, self.sweep, compile_seconds, run_seconds, steps,
-                          entry=entry, threads=threads)
+                          entry=entry, threads=threads, tier=self.tier)
 
     # --------------------------------------------------------------------------
     def chunk_values(self, start: int, stop: int) -> dict[str, np.ndarray]:
@@ -128,7 +135,7 @@ class CurveSweepRun:
         (``values``: their :meth:`chunk_values`, when already drawn)."""
         values = self.chunk_values(start, stop) if values is None else values
         run, _, mu_k, masses, gravity = _prepare(
-            self.scene, Sweep.cases(**values) if values else Sweep.single())
+            self.scene, Sweep.cases(**values) if values else Sweep.single(), self.tier)
         run.kernel = self.kernel
         return run, mu_k, masses, gravity
 

@@ -138,7 +138,11 @@ def flat_values(sweep: Sweep) -> dict[str, np.ndarray]:
     return {name: np.asarray(sweep.values(name), dtype=np.float64) for name in sweep.names}
 
 
-def _prepare(scene: CurveScene, sweep: Sweep):
+def _prepare(scene: CurveScene, sweep: Sweep, kernel: str | None = None,
+             sweep_size: int | None = None):
+    """``(run, values, mu_k, masses, gravity)`` of the sweep; its kernel's tier
+    (``kernel``, rampwork.curves.curve_tier) chosen for ``sweep_size``
+    trajectories (default: the sweep's)."""
     values = flat_values(sweep)
     n = sweep.size
     friction = scene.friction
@@ -153,7 +157,8 @@ def _prepare(scene: CurveScene, sweep: Sweep):
         m=values.get("m", scene.m), method=integrator.method,
         dt=integrator.dt if integrator.dt is not None else FIRST_STEP, t_max=scene.t_max,
         contact=scene.contact, drag_linear=values.get("drag_linear", scene.drag.linear),
-        drag_quadratic=values.get("drag_quadratic", scene.drag.quadratic), **adaptive, **shape)
+        drag_quadratic=values.get("drag_quadratic", scene.drag.quadratic), kernel=kernel,
+        sweep_size=n if sweep_size is None else sweep_size, **adaptive, **shape)
     masses = np.broadcast_to(values.get("m", scene.m), (n,))
     gravity = np.broadcast_to(values.get("g", scene.g), (n,))
     return run, values, np.broadcast_to(mu_k, (n,)), masses, gravity
@@ -173,10 +178,11 @@ def _drag_on(scene: CurveScene, sweep: Sweep) -> bool:
     return scene.drag.enabled or any(name.startswith("drag_") for name in sweep.names)
 
 
-def simulate_curve_scene(scene: CurveScene, sweep: Sweep | None = None) -> xr.Dataset:
+def simulate_curve_scene(scene: CurveScene, sweep: Sweep | None = None,
+                         kernel: str | None = None) -> xr.Dataset:
     """The dataset of ``scene`` over ``sweep`` (see :func:`rampwork.simulate`)."""
     sweep = check(scene, sweep)
-    run, values, mu_k, masses, gravity = _prepare(scene, sweep)
+    run, values, mu_k, masses, gravity = _prepare(scene, sweep, kernel)
     started = time.perf_counter()
     run.compile()
     compile_seconds = time.perf_counter() - started
@@ -198,7 +204,8 @@ def simulate_curve_scene(scene: CurveScene, sweep: Sweep | None = None) -> xr.Da
         dataset = dataset.merge(curve_traces(scene, sweep, traced))
         dataset.attrs["trace_time_s"] = time.perf_counter() - started
     dataset.attrs.update(attributes(scene, sweep, compile_seconds, run_seconds,
-                                    int(variables["steps"].sum()), threads=current_threads()))
+                                    int(variables["steps"].sum()), threads=current_threads(),
+                                    tier=run.tier))
     return dataset
 
 
@@ -272,7 +279,8 @@ def _layout(scene: CurveScene, sweep: Sweep, values: dict):
 
 
 def attributes(scene: CurveScene, sweep: Sweep, compile_seconds: float, run_seconds: float,
-               steps: int, entry: str = "rampwork.simulate", threads: int = 1) -> dict:
+               steps: int, entry: str = "rampwork.simulate", threads: int = 1,
+               tier: str = "specialised") -> dict:
     from .scenefile import dump_scene
 
     integrator = scene.integrator
@@ -296,7 +304,7 @@ def attributes(scene: CurveScene, sweep: Sweep, compile_seconds: float, run_seco
             "sweep_kind": sweep.kind,
             "kernel_closed_form": 0,
             "kernel_effects": f"curve kernel ({curve.family}, {scene.contact}; SIMD lanes)",
-            "kernel_tier": "curve",
+            "kernel_tier": tier,
             "n_trajectories": sweep.size,
             "trajectory_steps": steps,
             "compile_time_s": compile_seconds,

@@ -177,6 +177,38 @@ class Curve:
 
 _KERNELS: dict = {}
 
+#: the largest sweep that ``kernel="auto"`` runs on a curve's general kernel
+#: (every effect compiled in) while the specialised one is not compiled: a
+#: few seconds of work at most, where a compilation costs 5-25 s
+GENERAL_MAX_CASES = 1 << 15
+
+
+def curve_tier(spec: CurveFamily, method: str, kernel: str | None, n: int, *, one_sided: bool,
+               friction: bool, drag_linear: bool, drag_quadratic: bool, joints: int,
+               vector: bool = True) -> str:
+    """``"general"`` or ``"specialised"``: which curve kernel runs ``n``
+    trajectories (``kernel``: a tier of :data:`rampwork.validate.KERNEL_TIERS`, None
+    for ``RAMPWORK_KERNEL``'s or ``"auto"``).  A curve's general kernel is
+    its family's and method's (and contact's and joint count's) with
+    friction and both drag terms compiled in: zero coefficients make them
+    exact no-ops, so it gives the specialised kernel's results bit for bit
+    (tests/test_curve_tiers.py), and a scene that adds friction or drag
+    compiles nothing new.  ``auto``: the specialised kernel where it is
+    compiled or in numba's disk cache, else the general one for sweeps of
+    at most :data:`GENERAL_MAX_CASES`, else the specialised one."""
+    from .core.jit import disk_cached  # looked up per call: tests replace it
+
+    tier = validate.kernel_tier(kernel)
+    if tier != "auto":
+        return tier
+    if not spec.cacheable or (friction and drag_linear and drag_quadratic) or n > GENERAL_MAX_CASES:
+        return "specialised"
+    specialised = curve_kernel_for(spec, method, one_sided=one_sided, friction=friction,
+                                   drag_linear=drag_linear, drag_quadratic=drag_quadratic,
+                                   joints=joints, vector=vector)
+    ready = specialised.run_tiles.overloads or disk_cached(specialised.run_tiles)
+    return "specialised" if ready else "general"
+
 
 def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, friction: bool,
                      drag_linear: bool, drag_quadratic: bool, joints: int, vector: bool = True):
@@ -198,7 +230,7 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
                    method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
                    rtol: float = 1e-6, atol: float | None = None,
                    contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
-                   **shape) -> dict[str, np.ndarray]:
+                   kernel: str | None = None, **shape) -> dict[str, np.ndarray]:
     """Trajectories on ``curve``: every argument given as an array is swept
     (the arrays broadcast together, as do shape parameters given by name).
 
@@ -208,7 +240,8 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     ``method``: ``euler``, ``semi_implicit_euler``, ``rk4`` (steps of
     ``dt``), ``dopri5`` or ``dop853`` (its first step ``dt``, then a local error of p, u
     and the friction work below ``atol + rtol |value|``; ``atol`` defaults
-    to ``rtol``).  Returns
+    to ``rtol``).  ``kernel``: ``"auto"`` (default), ``"general"`` or
+    ``"specialised"`` (:func:`curve_tier`; equal results).  Returns
     arrays of the broadcast shape: ``status`` (codes of
     ``rampwork.STATUS_TABLE``), ``status_name`` and
     ``curve_kernel.OUTPUTS`` (``p_end``: the end's position parameter;
@@ -218,7 +251,7 @@ def simulate_curve(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, m=1
     return prepare_curve_run(curve, s0=s0, u0=u0, mu_k=mu_k, mu_s=mu_s, g=g, m=m, method=method,
                              dt=dt, t_max=t_max, rtol=rtol, atol=atol, contact=contact,
                              drag_linear=drag_linear, drag_quadratic=drag_quadratic,
-                             **shape).run()
+                             kernel=kernel, **shape).run()
 
 
 @dataclass
@@ -231,6 +264,7 @@ class CurveRun:
     shared: np.ndarray
     arguments: tuple  # (dt, t_max, side, rtol, atol)
     shape: tuple
+    tier: str = "specialised"  # or "general": see curve_tier
 
     def compile(self) -> None:
         """Compile the kernel on the first trajectory with no time to run."""
@@ -262,10 +296,13 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
                       method: str = "rk4", dt: float = 1e-3, t_max: float = 10.0,
                       rtol: float = 1e-6, atol: float | None = None,
                       contact: str = "one_sided", drag_linear=0.0, drag_quadratic=0.0,
-                      vector: bool = True, **shape) -> CurveRun:
+                      vector: bool = True, kernel: str | None = None, sweep_size: int | None = None,
+                      **shape) -> CurveRun:
     """Every check of :func:`simulate_curve` (same arguments), before any
     work: the :class:`CurveRun` to compile and run.  ``vector=False``: the
-    scalar reference kernel (every step alone; the same results, bit for bit)."""
+    scalar reference kernel (every step alone; the same results, bit for bit).
+    ``kernel``: the tier (:func:`curve_tier`), chosen for ``sweep_size``
+    trajectories (default: these)."""
     if not isinstance(curve, Curve):
         raise ConfigError("curve", f"expected a rampwork.curves.Curve, got {type(curve).__name__}")
     if method not in curve_kernel.CURVE_STEPPERS:
@@ -346,9 +383,12 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         inputs[row] = values
     for k, values in enumerate(params):
         inputs[curve_kernel.I_S0 + k] = values
-    kernel = curve_kernel_for(spec, method, one_sided=contact == "one_sided",
-                              friction=bool((flat["mu_k"] > 0).any()),
-                              drag_linear=bool((flat["drag_linear"] > 0).any()),
-                              drag_quadratic=bool((flat["drag_quadratic"] > 0).any()),
-                              joints=joints, vector=vector)
-    return CurveRun(kernel, inputs, shared, (dt, t_max, SIDES[curve.side], rtol, atol), shape_out)
+    effects = dict(one_sided=contact == "one_sided", friction=bool((flat["mu_k"] > 0).any()),
+                   drag_linear=bool((flat["drag_linear"] > 0).any()),
+                   drag_quadratic=bool((flat["drag_quadratic"] > 0).any()), joints=joints,
+                   vector=vector)
+    tier = curve_tier(spec, method, kernel, n if sweep_size is None else sweep_size, **effects)
+    if tier == "general":
+        effects.update(friction=True, drag_linear=True, drag_quadratic=True)
+    return CurveRun(curve_kernel_for(spec, method, **effects), inputs, shared,
+                    (dt, t_max, SIDES[curve.side], rtol, atol), shape_out, tier)

@@ -144,7 +144,7 @@ class CuspCurve:
             dt=integrator.dt if integrator.dt is not None else FIRST_STEP, t_max=scene.t_max,
             contact=scene.contact, drag_linear=scene.drag.linear,
             drag_quadratic=scene.drag.quadratic, row=np.arange(n, dtype=np.float64),
-            end_angle=shapes["end_angle"], **adaptive)
+            end_angle=shapes["end_angle"], kernel="specialised", **adaptive)  # many generations: it pays
         with using_threads(threads):
             raw = {name: np.reshape(values, (n,)) for name, values in run.run().items()}  # (n,) for n = 1
         p_end = 1.0 + np.sin(shapes["end_angle"])

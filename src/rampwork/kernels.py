@@ -37,14 +37,12 @@ from .core import kernel as K
 from .core.jit import CORE_DIGEST, cache_location, disk_cached
 from .core.steppers import ADAPTIVE_STEPPERS, STEPPERS
 from .core.variant import ANY_FAMILY, ANY_FIXED_STEP, KernelVariant
-from .errors import ConfigError
 from .plan import RunPlan
 from .ramps import FAMILIES
+from .validate import KERNEL_ENV, KERNEL_TIERS, kernel_tier
 
-#: the kernel tiers a run may ask for
-TIERS = ("auto", "general", "specialised")
-#: the environment variable that sets the default tier
-KERNEL_ENV = "RAMPWORK_KERNEL"
+#: the kernel tiers a run may ask for, and the environment variable of the default
+TIERS, KERNEL_ENV = KERNEL_TIERS, KERNEL_ENV
 #: the environment variable that turns the background compilation of the
 #: general kernels off ("0")
 WARMUP_ENV = "RAMPWORK_WARMUP"
@@ -63,13 +61,7 @@ WARMUP_STALE_S = 900
 _KERNELS: dict = {}
 
 
-def requested_tier(kernel: str | None) -> str:
-    """``kernel``, or the environment's default, checked."""
-    tier = kernel if kernel is not None else os.environ.get(KERNEL_ENV, "auto")
-    if tier not in TIERS:
-        where = "kernel" if kernel is not None else KERNEL_ENV
-        raise ConfigError(where, f"unknown kernel tier {tier!r}; allowed: {', '.join(TIERS)}")
-    return tier
+requested_tier = kernel_tier  # ``kernel``, or the environment's default, checked
 
 
 def has_general(plan: RunPlan) -> bool:

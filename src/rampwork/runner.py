@@ -299,7 +299,7 @@ def run_scene(scene: Scene, sweep: Sweep | None = None, *, threads: int | None =
     if isinstance(scene, CurveScene):
         kernels.requested_tier(kernel)
         with using_threads(thread_count(threads)):
-            dataset = simulate_curve_scene(scene, sweep)
+            dataset = simulate_curve_scene(scene, sweep, kernel)
         if progress is not None:
             progress(dataset.attrs["n_trajectories"], dataset.attrs["n_trajectories"])
         return dataset

@@ -4,6 +4,7 @@ parameter, the value and what is allowed.  Used by every settings object."""
 from __future__ import annotations
 
 import math
+import os
 from numbers import Real
 
 import numpy as np
@@ -14,6 +15,19 @@ from .errors import ConfigError
 MAX_AXIS_POINTS = 10**8
 #: the most trajectories one grid sweep may have
 MAX_TRAJECTORIES = 10**9
+#: the kernel tiers a run may ask for (rampwork.kernels; rampwork.curves.curve_tier)
+KERNEL_TIERS = ("auto", "general", "specialised")
+#: the environment variable that sets the default tier
+KERNEL_ENV = "RAMPWORK_KERNEL"
+
+
+def kernel_tier(kernel: str | None) -> str:
+    """``kernel``, or the environment's default (``auto`` without one), checked."""
+    tier = kernel if kernel is not None else os.environ.get(KERNEL_ENV, "auto")
+    if tier not in KERNEL_TIERS:
+        where = "kernel" if kernel is not None else KERNEL_ENV
+        raise ConfigError(where, f"unknown kernel tier {tier!r}; allowed: {', '.join(KERNEL_TIERS)}")
+    return tier
 
 
 def real(where: str, value) -> float:

@@ -51,6 +51,18 @@ def normal_along_n(u, cos_phi, kappa, g):
     return fma(g, cos_phi, centripetal if u != 0.0 else 0.0)
 
 
+@jit
+def _counts(coefficient):
+    """1.0 where a work integral's coefficient is nonzero, else 0.0.  The
+    error norm's RMS counts a work integral (and the friction terms exist)
+    only for a trajectory that has the effect (friction: ``q != 0``; drag:
+    ``|b| + |c| > 0``), so a trajectory steps as it would alone, whatever its
+    sweep holds and whichever effects its kernel was compiled with: a kernel
+    with every effect gives the specialised one's results bit for bit
+    (rampwork.curves.curve_tier)."""
+    return 1.0 if coefficient != 0.0 else 0.0
+
+
 #: the nodes c (fractions of the step) of dopri5's stages 2..5 and of
 #: DOP853's stages 2..11: the stages strictly inside a step
 C_DOPRI5 = (0.2, 0.3, 0.8, 8.0 / 9.0)
@@ -94,7 +106,7 @@ def _stage_from(frame, u, q, d, g, b, c):
     sin_phi, cos_phi, kappa, dp_ds = frame
     nu = normal_along_n(u, cos_phi, kappa, g)
     a = -g * sin_phi
-    if FRICTION:
+    if FRICTION and q != 0.0:  # a frictionless trajectory: no 0 * inf at a cusp
         a = fma(-q, nu, a)
     power = 0.0
     if DRAG:
@@ -111,7 +123,7 @@ def _stage_from(frame, u, q, d, g, b, c):
 
 def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     a, nu, turn, dp_ds, power = stage_from(frame, u, q, d, g, b, c)
-    work = h * q * nu * u if FRICTION else 0.0
+    work = h * q * nu * u if FRICTION and q != 0.0 else 0.0
     return (fma(h, u * dp_ds, p), fma(h, a, u), work, h * d * turn, h * u, h * power, 0.0,
             math.inf, -math.inf)
 
@@ -119,7 +131,7 @@ def _euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fram
 def _semi_implicit_euler_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame):
     a, nu, turn, dp_ds, power = stage_from(frame, u, q, d, g, b, c)
     u_new = fma(h, a, u)
-    work = h * q * nu * u if FRICTION else 0.0
+    work = h * q * nu * u if FRICTION and q != 0.0 else 0.0
     return (fma(h, u_new * dp_ds, p), u_new, work, h * d * turn, h * u_new, h * power, 0.0,
             math.inf, -math.inf)
 
@@ -136,7 +148,8 @@ def _rk4_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, frame)
     sixth = h / 6.0
     p_new = fma(sixth, u * r1 + 2.0 * (u2 * r2 + u3 * r3) + u4 * r4, p)
     u_new = fma(sixth, a1 + 2.0 * (a2 + a3) + a4, u)
-    work = q * sixth * (nu1 * u + 2.0 * (nu2 * u2 + nu3 * u3) + nu4 * u4) if FRICTION else 0.0
+    work = (q * sixth * (nu1 * u + 2.0 * (nu2 * u2 + nu3 * u3) + nu4 * u4)
+            if FRICTION and q != 0.0 else 0.0)
     curvature = d * sixth * (k1 + 2.0 * (k2 + k3) + k4)
     displacement = sixth * (u + 2.0 * (u2 + u3) + u4)
     drag = sixth * (pd1 + 2.0 * (pd2 + pd3) + pd4) if DRAG else 0.0
@@ -176,7 +189,7 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
     a7, n7, k7, r7, pd7 = stage(p7, u7, q, d, g, s0, s1, s2, s3, shared, b, c)
     v7 = u7 * r7
     w1, w3, w4, w5, w6, w7 = n1 * u, n3 * u3, n4 * u4, n5 * u5, n6 * u6, n7 * u7
-    work = h * q * _weigh5(w1, w3, w4, w5, w6) if FRICTION else 0.0
+    work = h * q * _weigh5(w1, w3, w4, w5, w6) if FRICTION and q != 0.0 else 0.0
     turn = h * d * _weigh5(k1, k3, k4, k5, k6)
     displacement = h * _weigh5(u, u3, u4, u5, u6)
     drag = h * _weigh5(pd1, pd3, pd4, pd5, pd6) if DRAG else 0.0
@@ -184,14 +197,14 @@ def _dopri5_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
     err_u = h * _error6(a1, a3, a4, a5, a6, a7) / fma(rtol, max(abs(u), abs(u7)), atol)
     squares = err_p * err_p + err_u * err_u
     count = 2.0
-    if FRICTION:
+    if FRICTION and q != 0.0:
         err_w = h * q * _error6(w1, w3, w4, w5, w6, w7) / fma(rtol, abs(work), atol)
         squares += err_w * err_w
         count += 1.0
     if DRAG:
         err_d = h * _error6(pd1, pd3, pd4, pd5, pd6, pd7) / fma(rtol, abs(drag), atol)
         squares += err_d * err_d
-        count += 1.0
+        count += _counts(abs(b) + abs(c))
     # stages 1..5 (c = 0, 1/5, 3/10, 4/5, 8/9; 6 and 7 are at c = 1), with
     # the parabola over the wide gap from 3/10 to 4/5 (one over each gap
     # cost 27 % of the time per step on a wrapped ramp, this one 1 %)
@@ -290,7 +303,7 @@ def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
         p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame)
     p_new = fma(h, _weigh8(velocities), p)
     u_new = fma(h, _weigh8(accelerations), u)
-    work = h * q * _weigh8(works) if FRICTION else 0.0
+    work = h * q * _weigh8(works) if FRICTION and q != 0.0 else 0.0
     turn = h * d * _weigh8(turns)
     displacement = h * _weigh8(speeds)
     drag = h * _weigh8(powers) if DRAG else 0.0
@@ -305,7 +318,7 @@ def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
     squares5 += e5 * e5
     squares3 += e3 * e3
     count = 2.0
-    if FRICTION:
+    if FRICTION and q != 0.0:
         scale_w = fma(rtol, abs(work), atol)
         e5 = h * q * _error5(works) / scale_w
         e3 = h * q * _error3(works) / scale_w
@@ -318,7 +331,7 @@ def _dop853_step(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, rtol, atol, fra
         e3 = h * _error3(powers) / scale_d
         squares5 += e5 * e5
         squares3 += e3 * e3
-        count += 1.0
+        count += _counts(abs(b) + abs(c))
     denominator = fma(0.01, squares3, squares5)
     error = squares5 / math.sqrt(count * denominator) if denominator > 0.0 else 0.0
     return p_new, u_new, work, turn, displacement, drag, error, nu_low, nu_high

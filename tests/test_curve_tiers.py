@@ -1,0 +1,136 @@
+"""A curve's two kernel tiers (rampwork.curves.curve_tier) give the same bits.
+
+The general kernel of a curve is its specialised kernel with friction and
+both drag terms compiled in; a zero coefficient must make each an exact
+no-op.  The adaptive pairs' error norm counts a work integral only for a
+trajectory that has it, so a trajectory also steps as it would alone,
+whatever the rest of its sweep holds.  The default suite checks the loop
+(reversals, stops, lift-offs, exits) with RK4 and dopri5 on both contacts;
+the slow suite every family, method and contact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rampwork as rw
+from rampwork import curves
+from rampwork.core.curve_steppers import CURVE_STEPPERS
+from rampwork.curve_scene import CurveScene
+from rampwork.curves import Curve, prepare_curve_run
+from rampwork.errors import ConfigError
+
+N = 240
+CURVES = {
+    "loop": lambda: Curve.create("loop", radius=1.0),
+    "quarter_pipe": lambda: Curve.create("quarter_pipe", radius=1.0, flat_length=0.5),
+    "graph_sine": lambda: Curve.from_ramp(rw.Ramp.create("sine", domain=(-1.0, 1.0),
+                                                         amplitude=0.1, wavenumber=6.0)),
+    "loop_track": lambda: Curve.create("loop_track", radius=1.0, blend_length=0.0),
+}
+
+
+def _arguments(curve, method, contact, effects, seed=3):
+    """Random starts; ``effects``: which of friction, drag_linear and
+    drag_quadratic the sweep has (zero in some of its trajectories)."""
+    lo, hi = (float(v[0]) for v in curve.domain())
+    rng = np.random.default_rng(seed)
+    u0 = rng.uniform(-7.0, 7.0, N)
+    u0[::9] = 0.0  # at rest: the rest rule
+
+    def some(values):
+        return values * (rng.uniform(size=N) < 0.6)
+
+    return dict(s0=rng.uniform(lo, hi, N), u0=u0, method=method,
+                mu_k=some(rng.uniform(0.05, 0.4, N)) if "friction" in effects else 0.0,
+                drag_linear=some(rng.uniform(0.0, 0.3, N)) if "drag_linear" in effects else 0.0,
+                drag_quadratic=some(rng.uniform(0.0, 0.3, N)) if "drag_quadratic" in effects else 0.0,
+                dt=2e-3, rtol=1e-7, t_max=2.0, contact=contact)
+
+
+def _same_bits(a, b):
+    for name in a:
+        floats = a[name].dtype.kind == "f"
+        assert np.array_equal(a[name], b[name], equal_nan=floats), name
+
+
+def _tiers_agree(name, method, contact, effects):
+    curve = CURVES[name]()
+    arguments = _arguments(curve, method, contact, effects)
+    general = prepare_curve_run(curve, kernel="general", **arguments)
+    specialised = prepare_curve_run(curve, kernel="specialised", **arguments)
+    assert (general.tier, specialised.tier) == ("general", "specialised")
+    _same_bits(general.run(), specialised.run())
+
+
+@pytest.mark.parametrize("contact", ["one_sided", "two_sided"])
+@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+def test_general_equals_specialised_on_the_loop(method, contact):
+    # friction in some trajectories, no drag: the general kernel's drag terms
+    # and (for dopri5) its friction-free trajectories' norms are no-ops
+    _tiers_agree("loop", method, contact, ("friction",))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effects", [(), ("friction",), ("drag_linear",),
+                                     ("friction", "drag_quadratic")])
+@pytest.mark.parametrize("contact", ["one_sided", "two_sided"])
+@pytest.mark.parametrize("method", tuple(CURVE_STEPPERS))
+@pytest.mark.parametrize("name", tuple(CURVES))
+def test_general_equals_specialised_everywhere(name, method, contact, effects):
+    _tiers_agree(name, method, contact, effects)
+
+
+@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
+def test_a_trajectory_steps_as_it_would_alone(method):
+    """Without friction or drag, an adaptive trajectory's steps do not depend
+    on its neighbours having them (before, the RMS counted their integrals)."""
+    curve = CURVES["loop"]()
+    mixed = _arguments(curve, method, "one_sided", ("friction", "drag_linear"))
+    bare = (mixed["mu_k"] == 0.0) & (mixed["drag_linear"] == 0.0)
+    assert 20 < bare.sum() < N - 20
+    together = prepare_curve_run(curve, kernel="specialised", **mixed).run()
+    alone_arguments = {**mixed, "s0": mixed["s0"][bare], "u0": mixed["u0"][bare],
+                       "mu_k": 0.0, "drag_linear": 0.0}
+    alone = prepare_curve_run(curve, kernel="specialised", **alone_arguments)
+    assert alone.kernel is not together  # the friction-free variant
+    result = alone.run()
+    _same_bits(result, {name: values[bare] for name, values in together.items()})
+    assert len(set(result["status_name"])) >= 2  # not one outcome only
+
+
+def test_auto_runs_small_sweeps_on_the_general_kernel_until_the_specialised_is_compiled(
+        monkeypatch):
+    curve = CURVES["loop"]()
+    spec = curve.spec
+    effects = dict(one_sided=True, friction=False, drag_linear=True, drag_quadratic=False,
+                   joints=0)
+    specialised = curves.curve_kernel_for(spec, "semi_implicit_euler", **effects)
+    if specialised.run_tiles.overloads:
+        pytest.skip("this process compiled the specialised kernel already")
+    monkeypatch.setattr("rampwork.core.jit.disk_cached", lambda dispatcher: False)
+    tier = curves.curve_tier
+    assert tier(spec, "semi_implicit_euler", None, 100, **effects) == "general"
+    assert tier(spec, "semi_implicit_euler", "auto", curves.GENERAL_MAX_CASES, **effects) == "general"
+    assert tier(spec, "semi_implicit_euler", "auto", curves.GENERAL_MAX_CASES + 1,
+                **effects) == "specialised"  # a long run: the specialised kernel pays
+    assert tier(spec, "semi_implicit_euler", "specialised", 100, **effects) == "specialised"
+    monkeypatch.setattr("rampwork.core.jit.disk_cached", lambda dispatcher: True)
+    assert tier(spec, "semi_implicit_euler", "auto", 100, **effects) == "specialised"
+    monkeypatch.setenv("RAMPWORK_KERNEL", "general")
+    assert tier(spec, "semi_implicit_euler", None, 100, **effects) == "general"
+    with pytest.raises(ConfigError, match="unknown kernel tier 'fast'"):
+        tier(spec, "semi_implicit_euler", "fast", 100, **effects)
+
+
+def test_a_curve_scene_says_which_tier_ran():
+    scene = CurveScene(curve=CURVES["loop"](), s0=0.0, u0=6.0,
+                       integrator=rw.Integrator("rk4", dt=2e-3), t_max=2.0)
+    sweep = rw.Sweep.grid(mu=[0.0, 0.1])
+    general = rw.simulate(scene, sweep, kernel="general")
+    specialised = rw.simulate(scene, sweep, kernel="specialised")
+    assert general.attrs["kernel_tier"] == "general"
+    assert specialised.attrs["kernel_tier"] == "specialised"
+    for name in general.data_vars:
+        assert np.array_equal(general[name].values, specialised[name].values), name
