@@ -26,8 +26,10 @@ from .core import curve_kernel, curve_lanes, curve_trace, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
 from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
-                             SPLINE_FAMILY, TWO_PI, CurveFamily, check_spline_row,
+                             SPLINE_FAMILY, TRACK_FAMILY, TWO_PI, CurveFamily, check_spline_row,
                              convex_cusp_shared, spline_ends, spline_population, spline_shared)
+from .curve_tracks import (loop_track_pieces, track_ends, track_joints,  # noqa: F401 (public)
+                           track_population)
 from .errors import ConfigError
 from .ramps import Ramp
 
@@ -39,6 +41,14 @@ def _nested(array: np.ndarray) -> tuple:
     if array.ndim > 1:
         return tuple(tuple(row.tolist()) for row in array)
     return tuple(array.ravel().tolist())
+
+
+def _nested_pieces(pieces) -> tuple:
+    """A track's pieces as given: rows of three floats, or a tuple of such per track."""
+    array = np.asarray(pieces, dtype=object)
+    if array.ndim == 2:
+        return tuple(tuple(float(v) for v in piece) for piece in pieces)
+    return tuple(_nested_pieces(track) for track in pieces)
 
 
 def _graph_family(ramp: Ramp) -> CurveFamily:
@@ -119,6 +129,25 @@ class Curve:
                    points + (end, tangents if end == "clamped" else None, bool(allow_crossing)))
 
     @classmethod
+    def track(cls, pieces, *, start=(0.0, 0.0, 0.0), side: str = "left", row: int = 0) -> "Curve":
+        """A chain of pieces ``[length, curvature_start, curvature_end]``
+        (curvature linear in arc length on each: straights, circular arcs,
+        clothoids) from ``start = (X, Y, angle)``, with a joint (an exact
+        event: no step crosses it) at every piece's start but the first, any
+        number of them (family ``track``, rampwork.curve_tracks).  A
+        population: ``pieces`` one list per track (their counts may differ)
+        and ``start`` one or one per track; this curve is track ``row``, and
+        a sweep over ``row`` runs them all."""
+        data = track_population(pieces, start)
+        side = validate.choice("curve.side", side, tuple(SIDES))
+        params = TRACK_FAMILY.arrays({"row": row})
+        check_spline_row(data, params["row"], "tracks")
+        nested = _nested_pieces(pieces)
+        start = np.asarray(start, dtype=np.float64)
+        return cls("track", (("row", float(params["row"][0])),), side, None, tuple(data.tolist()),
+                   (nested, _nested(start)))
+
+    @classmethod
     def convex_cusp(cls, coefficients, end_angles, *, row: int = 0) -> "Curve":
         """Convex curves from a vertical start at the origin (family
         ``convex_cusp``, docs/physics.md §5.2): radius of curvature
@@ -140,6 +169,8 @@ class Curve:
     def spec(self) -> CurveFamily:
         if self.family == "convex_cusp":
             return CONVEX_CUSP_FAMILY
+        if self.family == "track":
+            return TRACK_FAMILY
         if self.data is not None:
             return SPLINE_FAMILY
         return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
@@ -157,6 +188,10 @@ class Curve:
             rows = SPLINE_FAMILY.arrays({**dict(self.params), **overrides})["row"]
             check_spline_row(np.asarray(self.data), rows)
             return np.zeros_like(rows), spline_ends(np.asarray(self.data), rows)
+        if self.family == "track":
+            rows = TRACK_FAMILY.arrays({**dict(self.params), **overrides})["row"]
+            check_spline_row(np.asarray(self.data), rows, "tracks")
+            return np.zeros_like(rows), track_ends(np.asarray(self.data), rows)
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
 
     def evaluate(self, p) -> dict[str, np.ndarray]:
@@ -310,12 +345,12 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
         shared = curve._shared()
     else:
-        if curve.family == "spline":  # each case's spline of the population
+        shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
+        if curve.family in ("spline", "track"):  # each case's curve of the population
             lo, hi = curve.domain(row=params[0])
         else:
             lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
-        shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})
     # the kernel's joint count: the family's, where any trajectory has a joint
     joints = joint.shape[0] if joint is not None and np.isfinite(joint).any() else 0
@@ -323,6 +358,11 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     if joints:
         for k, row in enumerate(joint):
             joint_rows[k] = np.broadcast_to(row, (n,))
+    if curve.family == "track":  # any number: offset and count of each row's in ``shared``
+        offsets, counts = track_joints(shared, params[0])
+        if (counts > 0).any():
+            joints = curve_kernel.MANY_JOINTS
+            joint_rows = [offsets, counts]
     start = flat["s0"]
     off = ~((start >= p_lo) & (start <= p_hi))
     if off.any():
