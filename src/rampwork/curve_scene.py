@@ -18,6 +18,7 @@ depend on the sweep they are part of nor on the thread count.  Everything is che
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field, replace
 
@@ -339,13 +340,24 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
     return Curve.create(family, side=side, **params), contact
 
 
+#: a spline coordinate's name: x or y and the point's index
+COORDINATE = re.compile(r"[xy](0|[1-9][0-9]*)$")
+
+
+def rows_of(points: list) -> bool:
+    return bool(points) and isinstance(points[0], list)
+
+
 def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
     """A ``[curve]`` table with ``family = "spline"``: the points and end
     conditions of :meth:`Curve.through_points`; a list of lists of points
     is a population, one spline per row, swept by the axis ``row``."""
     from .scenefile import _check_keys, _number, _numbers, _short, _string
 
-    _check_keys("curve", table, CURVE_KEYS + SPLINE_KEYS)
+    # a coordinate by name (x2 = 0.5: point 2's X) replaces it in every row
+    coordinates = {key: table[key] for key in table if COORDINATE.match(key)}
+    _check_keys("curve", {k: v for k, v in table.items() if k not in coordinates},
+                CURVE_KEYS + SPLINE_KEYS)
     args = {}
     for key in ("x_points", "y_points"):
         if key not in table:
@@ -354,6 +366,14 @@ def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
         rows = isinstance(value, list) and bool(value) and all(isinstance(v, list) for v in value)
         args[key] = ([_numbers(f"curve.{key}[{k}]", v) for k, v in enumerate(value)] if rows
                      else _numbers(f"curve.{key}", value))
+    for name, value in coordinates.items():
+        key, index = f"{name[0]}_points", int(name[1:])
+        number = _number(f"curve.{name}", value, sweepable=True)
+        for row in (args[key] if rows_of(args[key]) else [args[key]]):
+            if index >= len(row):
+                raise ConfigError(f"curve.{name}", f"no such coordinate: the spline has "
+                                  f"{len(row)} points")
+            row[index] = number
     if "row" in table:
         args["row"] = _number("curve.row", table["row"], sweepable=True)
     if "end" in table:

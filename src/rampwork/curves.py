@@ -30,6 +30,7 @@ from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # n
                              convex_cusp_shared, spline_ends, spline_population, spline_shared)
 from .curve_tracks import (loop_track_pieces, track_ends, track_joints,  # noqa: F401 (public)
                            track_population)
+from .spline_coordinates import coordinate_population, spline_family, split_coordinates
 from .errors import ConfigError
 from .ramps import Ramp
 
@@ -171,9 +172,14 @@ class Curve:
             return CONVEX_CUSP_FAMILY
         if self.family == "track":
             return TRACK_FAMILY
-        if self.data is not None:
-            return SPLINE_FAMILY
+        if self.data is not None:  # a spline: its points' coordinates are parameters too
+            return spline_family(self.data_points)
         return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
+
+    @property
+    def data_points(self) -> int:
+        """A spline's number of points."""
+        return int(self.data[2])
 
     def _shared(self) -> np.ndarray:
         if self.data is not None:
@@ -316,6 +322,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     if fixed and shape:
         raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (sweep "
                           "a wrapped ramp's parameters with rampwork.simulate on the ramp)")
+    coordinates = {}
+    if curve.family == "spline":  # swept coordinates of the points: rows of a population
+        coordinates, shape = split_coordinates(shape, curve.data_points)
+        spec = SPLINE_FAMILY
     arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
@@ -334,19 +344,28 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     if (scalars["mu_s"] < scalars["mu_k"]).any():
         raise ConfigError("mu_s", "must be >= mu_k")
     shape_out = np.broadcast_shapes(*(a.shape for a in scalars.values()),
-                                    *(a.shape if a.size > 1 else () for a in arrays.values()))
+                                    *(a.shape if a.size > 1 else () for a in arrays.values()),
+                                    *(a.shape for a in coordinates.values()))
     n = int(np.prod(shape_out, dtype=np.int64))
     flat = {k: np.broadcast_to(v, shape_out).ravel() for k, v in scalars.items()}
     params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
               for a in arrays.values()]
     joint = None
+    shared_override = None
+    if coordinates:
+        shared_override, params[0] = coordinate_population(
+            curve.points, params[0], {k: np.broadcast_to(v, shape_out).ravel()
+                                      for k, v in coordinates.items()})
     if fixed:
         lo, hi = curve.domain()
         p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
         shared = curve._shared()
     else:
         shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
-        if curve.family in ("spline", "track"):  # each case's curve of the population
+        if shared_override is not None:  # each case's spline of the swept coordinates
+            shared = shared_override
+            lo, hi = np.zeros(n), spline_ends(shared, params[0])
+        elif curve.family in ("spline", "track"):  # each case's curve of the population
             lo, hi = curve.domain(row=params[0])
         else:
             lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
