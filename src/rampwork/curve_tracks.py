@@ -78,7 +78,7 @@ def track_row(pieces: np.ndarray, start) -> np.ndarray:
     y = np.empty(n)
     x[0], y[0], phi[0] = start
     for k in range(1, n):  # each piece starts where the last one ends
-        dx, dy = curve_track.track_offset(lengths[k - 1], phi[k - 1], k0[k - 1], c[k - 1])
+        dx, dy = curve_track.piece_offset(lengths[k - 1], phi[k - 1], k0[k - 1], c[k - 1])
         x[k], y[k] = x[k - 1] + dx, y[k - 1] + dy
         phi[k] = phi[k - 1] + lengths[k - 1] * (k0[k - 1] + 0.5 * c[k - 1] * lengths[k - 1])
     return np.concatenate([[n], s, phi, k0, c, x, y])
