@@ -186,3 +186,21 @@ def test_the_sloped_loop_example_reads_back_and_runs_as_in_python():
     population = scene.replace(curve=Curve.track([pieces, pieces[:2]], start=[start, start],
                                                  row=1))
     assert parse_scene(dump_scene(population, sweep)) == (population, sweep)
+
+
+def test_a_chunked_track_sweep_equals_the_one_call_run(tmp_path):
+    """Chunks run on the whole sweep's kernel (MANY_JOINTS here), also a
+    chunk whose tracks have no joint."""
+    import rampwork as rw
+    from rampwork.curve_scene import CurveScene
+
+    loop, start = loop_track_pieces(RADIUS, SLOPE, 1.0)
+    tracks = Curve.track([[[3.0, 0.0, 0.0]], loop], start=[(0.0, 0.5, -0.2), start])
+    scene = CurveScene(curve=tracks, s0=0.0, t_max=5.0)
+    sweep = rw.Sweep.grid(row=[0.0, 1.0], u0=[1.0, 6.4, 7.0])
+    whole = rw.simulate(scene, sweep)
+    path = tmp_path / "chunks.nc"
+    rw.run_to_file(scene, sweep, path, chunk_size=3)
+    chunked = rw.open_dataset(path)
+    for name in ("s_end", "t_end", "u_end", "status"):
+        np.testing.assert_array_equal(chunked[name].values, whole[name].values, err_msg=name)

@@ -378,10 +378,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
         for k, row in enumerate(joint):
             joint_rows[k] = np.broadcast_to(row, (n,))
     if curve.family == "track":  # any number: offset and count of each row's in ``shared``
+        # (written even where no row has a joint: a chunk may run on the sweep's MANY kernel)
         offsets, counts = track_joints(shared, params[0])
-        if (counts > 0).any():
-            joints = curve_kernel.MANY_JOINTS
-            joint_rows = [offsets, counts]
+        joint_rows = [offsets, counts]
+        joints = curve_kernel.MANY_JOINTS if (counts > 0).any() else 0
     start = flat["s0"]
     off = ~((start >= p_lo) & (start <= p_hi))
     if off.any():
