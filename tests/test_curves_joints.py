@@ -172,7 +172,7 @@ def test_the_sloped_loop_example_reads_back_and_runs_as_in_python():
     from rampwork.cli import example_text
     from rampwork.scenefile import dump_scene, parse_scene
 
-    scene, _ = parse_scene(example_text("loop_sloped"))
+    scene, _ = parse_scene(example_text("track"))
     sweep = rw.Sweep.grid(u0=[6.3, 6.6, 7.0])  # frictionless: the kernel compiled above
     assert parse_scene(dump_scene(scene, sweep)) == (scene, sweep)
     dataset = rw.simulate(scene, sweep)

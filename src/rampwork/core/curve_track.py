@@ -67,7 +67,7 @@ def branch_near(p, d, shared, first, count, s3):
     by at most one (no step crosses a joint: it ends just past it), and the
     next joint ahead in direction d (NaN: none).  No loop, so the lane
     kernel's vector loop keeps its width."""
-    k = int(s3) - 1
+    k = min(max(int(s3) - 1, 0), count)  # (an empty lane's s3 may be anything)
     if k < count and (p > shared[first + k] or (p == shared[first + k] and d > 0.0)):
         k += 1
     elif k > 0 and not (p > shared[first + k - 1] or (p == shared[first + k - 1] and d > 0.0)):
