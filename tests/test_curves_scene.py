@@ -19,7 +19,7 @@ from rampwork.errors import ConfigError
 from rampwork.scenefile import dump_scene, parse_scene, scene_from_dataset
 
 G = 9.81
-CURVE_EXAMPLES = ("loop", "quarter_pipe", "brachistochrone")
+CURVE_EXAMPLES = ("loop", "quarter_pipe", "brachistochrone", "track")
 
 LOOP = """\
 title = "loop"

@@ -12,7 +12,7 @@ from typing import Mapping
 
 import numpy as np
 
-from .core import curves as core_curves
+from .core import curve_track as core_track, curves as core_curves
 from .errors import ConfigError
 from .ramps import ParameterSpec
 
@@ -20,7 +20,8 @@ TWO_PI = 2.0 * math.pi
 #: the sides a block can be on: the one the left normal N points to, or the other
 SIDES = {"left": 1.0, "right": -1.0}
 CONTACTS = ("one_sided", "two_sided")
-#: joints per curve the kernel takes (core/curve_kernel.py: JOINT, JOINT2)
+#: joints per curve of a family's ``joint`` (core/curve_kernel.py: JOINT,
+#: JOINT2); more take the kernel's MANY_JOINTS mode (the family ``track``)
 MAX_JOINTS = 2
 
 
@@ -233,6 +234,13 @@ SPLINE_FAMILY = CurveFamily(
     (_p("row", "1", "row of the points: which spline of the population", default=0.0),),
     core_curves.spline_curve_frame, core_curves.spline_curve_point, None, position="t")
 
+TRACK_FAMILY = CurveFamily(
+    "track", "a chain of pieces (straights, circular arcs, clothoids: curvature linear in s "
+    "on each) from a start point and angle, a joint at every piece's start but the first; "
+    "a population of tracks, one per row, shares one array (row: which)",
+    (_p("row", "1", "row of the pieces: which track of the population", default=0.0),),
+    core_track.track_frame, core_track.track_point, None)
+
 
 def spline_rows(x_points, y_points) -> tuple[np.ndarray, np.ndarray]:
     """The points as (rows, n) arrays: each of ``x_points``, ``y_points`` one
@@ -281,12 +289,12 @@ def spline_ends(shared: np.ndarray, rows: np.ndarray) -> np.ndarray:
     return shared[2 + rows.astype(np.int64) * block + 1 + n]
 
 
-def check_spline_row(shared: np.ndarray, rows: np.ndarray) -> None:
-    """Every ``row`` names a spline of the population."""
+def check_spline_row(shared: np.ndarray, rows: np.ndarray, what: str = "splines") -> None:
+    """Every ``row`` names a spline (or track: ``what``) of the population."""
     count = int(shared[0])
     bad = ~((rows >= 0) & (rows < count) & (rows == np.round(rows)))
     if bad.any():
-        raise ConfigError("curve.row", f"must be an integer in [0, {count}) (the splines' rows), "
+        raise ConfigError("curve.row", f"must be an integer in [0, {count}) (the {what}' rows), "
                           f"got {float(rows[bad][0])!r}")
 
 

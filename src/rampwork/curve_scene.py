@@ -18,6 +18,7 @@ depend on the sweep they are part of nor on the thread count.  Everything is che
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field, replace
 
@@ -331,13 +332,15 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
     from .scenefile import _check_keys, _number, _string
 
     if "family" not in table:
-        raise ConfigError("curve.family", f"required; allowed: {', '.join(CURVE_FAMILIES)}, spline")
+        raise ConfigError("curve.family", f"required; allowed: {', '.join(CURVE_FAMILIES)}, spline, track")
     family = _string("curve.family", table["family"])
     if family == "spline":
         return _spline_from_table(table)
+    if family == "track":
+        return _track_from_table(table)
     if family not in CURVE_FAMILIES:
         raise ConfigError("curve.family", f"unknown curve family {family!r}; allowed: "
-                          f"{', '.join(CURVE_FAMILIES)}, spline")
+                          f"{', '.join(CURVE_FAMILIES)}, spline, track")
     spec = CURVE_FAMILIES[family]
     _check_keys("curve", table, CURVE_KEYS + spec.parameter_names)
     params = {name: _number(f"curve.{name}", table[name], sweepable=True)
@@ -347,13 +350,24 @@ def curve_from_table(table: dict) -> tuple[Curve, str | None]:
     return Curve.create(family, side=side, **params), contact
 
 
+#: a spline coordinate's name: x or y and the point's index
+COORDINATE = re.compile(r"[xy](0|[1-9][0-9]*)$")
+
+
+def rows_of(points: list) -> bool:
+    return bool(points) and isinstance(points[0], list)
+
+
 def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
     """A ``[curve]`` table with ``family = "spline"``: the points and end
     conditions of :meth:`Curve.through_points`; a list of lists of points
     is a population, one spline per row, swept by the axis ``row``."""
     from .scenefile import _check_keys, _number, _numbers, _short, _string
 
-    _check_keys("curve", table, CURVE_KEYS + SPLINE_KEYS)
+    # a coordinate by name (x2 = 0.5: point 2's X) replaces it in every row
+    coordinates = {key: table[key] for key in table if COORDINATE.match(key)}
+    _check_keys("curve", {k: v for k, v in table.items() if k not in coordinates},
+                CURVE_KEYS + SPLINE_KEYS)
     args = {}
     for key in ("x_points", "y_points"):
         if key not in table:
@@ -362,6 +376,14 @@ def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
         rows = isinstance(value, list) and bool(value) and all(isinstance(v, list) for v in value)
         args[key] = ([_numbers(f"curve.{key}[{k}]", v) for k, v in enumerate(value)] if rows
                      else _numbers(f"curve.{key}", value))
+    for name, value in coordinates.items():
+        key, index = f"{name[0]}_points", int(name[1:])
+        number = _number(f"curve.{name}", value, sweepable=True)
+        for row in (args[key] if rows_of(args[key]) else [args[key]]):
+            if index >= len(row):
+                raise ConfigError(f"curve.{name}", f"no such coordinate: the spline has "
+                                  f"{len(row)} points")
+            row[index] = number
     if "row" in table:
         args["row"] = _number("curve.row", table["row"], sweepable=True)
     if "end" in table:
@@ -379,6 +401,40 @@ def _spline_from_table(table: dict) -> tuple[Curve, str | None]:
     side = _string("curve.side", table["side"]) if "side" in table else "left"
     contact = _string("curve.contact", table["contact"]) if "contact" in table else None
     return Curve.through_points(side=side, **args), contact
+
+
+#: keys of a track's [curve] table (family = "track": Curve.track)
+TRACK_KEYS = ("pieces", "start", "row")
+
+
+def _track_from_table(table: dict) -> tuple[Curve, str | None]:
+    """A ``[curve]`` table with ``family = "track"``: ``pieces`` (a list of
+    [length, curvature_start, curvature_end], or one such list per track)
+    and ``start`` ([X, Y, angle], or one per track) of :meth:`Curve.track`."""
+    from .scenefile import _check_keys, _number, _numbers, _short, _string
+
+    _check_keys("curve", table, CURVE_KEYS + TRACK_KEYS)
+    if "pieces" not in table:
+        raise ConfigError("curve.pieces", "required for family = \"track\": a list of "
+                          "[length, curvature_start, curvature_end] (m, 1/m, 1/m)")
+    pieces = table["pieces"]
+    if not isinstance(pieces, list) or not pieces:
+        raise ConfigError("curve.pieces", f"expected a list of pieces, got {_short(pieces)}")
+    nested = all(isinstance(p, list) and p and all(isinstance(q, list) for q in p) for p in pieces)
+    tracks = pieces if nested else [pieces]
+    parsed = [[_numbers(f"curve.pieces[{k}][{i}]" if nested else f"curve.pieces[{i}]", piece, 3)
+               for i, piece in enumerate(track)] for k, track in enumerate(tracks)]
+    args = {}
+    if "start" in table:
+        start = table["start"]
+        rows = isinstance(start, list) and bool(start) and all(isinstance(v, list) for v in start)
+        args["start"] = ([_numbers(f"curve.start[{k}]", v, 3) for k, v in enumerate(start)] if rows
+                         else _numbers("curve.start", start, 3))
+    if "row" in table:
+        args["row"] = _number("curve.row", table["row"], sweepable=True)
+    side = _string("curve.side", table["side"]) if "side" in table else "left"
+    contact = _string("curve.contact", table["contact"]) if "contact" in table else None
+    return Curve.track(parsed if nested else parsed[0], side=side, **args), contact
 
 
 def scene_from_data(data: dict) -> CurveScene:
@@ -426,7 +482,11 @@ def dump_curve_lines(scene: CurveScene) -> list[str]:
     lines += ["", "[curve]", f"family = {_toml_string(curve.family)}",
               f"side = {_toml_string(curve.side)}"]
     lines += [f"{name} = {_toml_float(f'curve.{name}', value)}" for name, value in curve.params]
-    if curve.points is not None:  # a spline through points (or a population: rows)
+    if curve.family == "track":  # its pieces and start (a population: one list per track)
+        pieces, start = curve.points
+        lines.append("pieces = " + _toml_nested("curve.pieces", pieces))
+        lines.append("start = " + _toml_nested("curve.start", start))
+    elif curve.points is not None:  # a spline through points (or a population: rows)
         x_points, y_points, end, tangents, allow_crossing = curve.points
         for key, values in (("x_points", x_points), ("y_points", y_points)):
             if values and isinstance(values[0], tuple):
@@ -443,3 +503,15 @@ def dump_curve_lines(scene: CurveScene) -> list[str]:
             lines.append("allow_crossing = true")
     return lines
 
+
+
+def _toml_nested(where: str, values) -> str:
+    """A (nested) tuple of floats as a TOML array, one line per innermost list's parent."""
+    from .scenefile import _toml_array
+
+    if values and isinstance(values[0], tuple):
+        inner = [_toml_nested(f"{where}[{k}]", v) for k, v in enumerate(values)]
+        if isinstance(values[0][0], tuple):
+            return "[\n" + "".join(f"    {line},\n" for line in inner) + "]"
+        return "[" + ", ".join(inner) + "]"
+    return _toml_array(where, values)

@@ -26,8 +26,11 @@ from .core import curve_kernel, curve_lanes, curve_trace, curves as core_curves
 from .core.jit import specialise
 from .core.status import STATUS_NAMES
 from .curve_families import (CONTACTS, CONVEX_CUSP_FAMILY, FAMILIES, SIDES,  # noqa: F401 (public)
-                             SPLINE_FAMILY, TWO_PI, CurveFamily, check_spline_row,
+                             SPLINE_FAMILY, TRACK_FAMILY, TWO_PI, CurveFamily, check_spline_row,
                              convex_cusp_shared, spline_ends, spline_population, spline_shared)
+from .curve_tracks import (loop_track_pieces, track_ends, track_joints,  # noqa: F401 (public)
+                           track_population)
+from .spline_coordinates import coordinate_population, spline_family, split_coordinates
 from .errors import ConfigError
 from .ramps import Ramp
 
@@ -39,6 +42,14 @@ def _nested(array: np.ndarray) -> tuple:
     if array.ndim > 1:
         return tuple(tuple(row.tolist()) for row in array)
     return tuple(array.ravel().tolist())
+
+
+def _nested_pieces(pieces) -> tuple:
+    """A track's pieces as given: rows of three floats, or a tuple of such per track."""
+    array = np.asarray(pieces, dtype=object)
+    if array.ndim == 2:
+        return tuple(tuple(float(v) for v in piece) for piece in pieces)
+    return tuple(_nested_pieces(track) for track in pieces)
 
 
 def _graph_family(ramp: Ramp) -> CurveFamily:
@@ -119,6 +130,25 @@ class Curve:
                    points + (end, tangents if end == "clamped" else None, bool(allow_crossing)))
 
     @classmethod
+    def track(cls, pieces, *, start=(0.0, 0.0, 0.0), side: str = "left", row: int = 0) -> "Curve":
+        """A chain of pieces ``[length, curvature_start, curvature_end]``
+        (curvature linear in arc length on each: straights, circular arcs,
+        clothoids) from ``start = (X, Y, angle)``, with a joint (an exact
+        event: no step crosses it) at every piece's start but the first, any
+        number of them (family ``track``, rampwork.curve_tracks).  A
+        population: ``pieces`` one list per track (their counts may differ)
+        and ``start`` one or one per track; this curve is track ``row``, and
+        a sweep over ``row`` runs them all."""
+        data = track_population(pieces, start)
+        side = validate.choice("curve.side", side, tuple(SIDES))
+        params = TRACK_FAMILY.arrays({"row": row})
+        check_spline_row(data, params["row"], "tracks")
+        nested = _nested_pieces(pieces)
+        start = np.asarray(start, dtype=np.float64)
+        return cls("track", (("row", float(params["row"][0])),), side, None, tuple(data.tolist()),
+                   (nested, _nested(start)))
+
+    @classmethod
     def convex_cusp(cls, coefficients, end_angles, *, row: int = 0) -> "Curve":
         """Convex curves from a vertical start at the origin (family
         ``convex_cusp``, docs/physics.md §5.2): radius of curvature
@@ -140,9 +170,16 @@ class Curve:
     def spec(self) -> CurveFamily:
         if self.family == "convex_cusp":
             return CONVEX_CUSP_FAMILY
-        if self.data is not None:
-            return SPLINE_FAMILY
+        if self.family == "track":
+            return TRACK_FAMILY
+        if self.data is not None:  # a spline: its points' coordinates are parameters too
+            return spline_family(self.data_points)
         return _graph_family(self.ramp) if self.ramp is not None else FAMILIES[self.family]
+
+    @property
+    def data_points(self) -> int:
+        """A spline's number of points."""
+        return int(self.data[2])
 
     def _shared(self) -> np.ndarray:
         if self.data is not None:
@@ -157,6 +194,10 @@ class Curve:
             rows = SPLINE_FAMILY.arrays({**dict(self.params), **overrides})["row"]
             check_spline_row(np.asarray(self.data), rows)
             return np.zeros_like(rows), spline_ends(np.asarray(self.data), rows)
+        if self.family == "track":
+            rows = TRACK_FAMILY.arrays({**dict(self.params), **overrides})["row"]
+            check_spline_row(np.asarray(self.data), rows, "tracks")
+            return np.zeros_like(rows), track_ends(np.asarray(self.data), rows)
         return self.spec.domain(self.spec.arrays({**dict(self.params), **overrides}))
 
     def evaluate(self, p) -> dict[str, np.ndarray]:
@@ -318,6 +359,10 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     if fixed and shape:
         raise ConfigError(f"curve.{next(iter(shape))}", "no shape parameter to sweep here (sweep "
                           "a wrapped ramp's parameters with rampwork.simulate on the ramp)")
+    coordinates = {}
+    if curve.family == "spline":  # swept coordinates of the points: rows of a population
+        coordinates, shape = split_coordinates(shape, curve.data_points)
+        spec = SPLINE_FAMILY
     arrays = spec.arrays({**dict(curve.params), **shape}) if not fixed else {
         name: np.array([value]) for name, value in curve.params}
     scalars = {}
@@ -336,23 +381,32 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     if (scalars["mu_s"] < scalars["mu_k"]).any():
         raise ConfigError("mu_s", "must be >= mu_k")
     shape_out = np.broadcast_shapes(*(a.shape for a in scalars.values()),
-                                    *(a.shape if a.size > 1 else () for a in arrays.values()))
+                                    *(a.shape if a.size > 1 else () for a in arrays.values()),
+                                    *(a.shape for a in coordinates.values()))
     n = int(np.prod(shape_out, dtype=np.int64))
     flat = {k: np.broadcast_to(v, shape_out).ravel() for k, v in scalars.items()}
     params = [np.broadcast_to(a if a.size > 1 else a.reshape(()), shape_out).ravel()
               for a in arrays.values()]
     joint = None
+    shared_override = None
+    if coordinates:
+        shared_override, params[0] = coordinate_population(
+            curve.points, params[0], {k: np.broadcast_to(v, shape_out).ravel()
+                                      for k, v in coordinates.items()})
     if fixed:
         lo, hi = curve.domain()
         p_lo, p_hi = np.full(n, lo[0]), np.full(n, hi[0])
         shared = curve._shared()
     else:
-        if curve.family == "spline":  # each case's spline of the population
+        shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
+        if shared_override is not None:  # each case's spline of the swept coordinates
+            shared = shared_override
+            lo, hi = np.zeros(n), spline_ends(shared, params[0])
+        elif curve.family in ("spline", "track"):  # each case's curve of the population
             lo, hi = curve.domain(row=params[0])
         else:
             lo, hi = spec.domain({k: a for k, a in zip(arrays, params)})
         p_lo, p_hi = np.broadcast_to(lo, (n,)), np.broadcast_to(hi, (n,))
-        shared = np.zeros(1) if curve.data is None else curve._shared()  # convex_cusp: its rows
         joint = spec.joint({k: a for k, a in zip(arrays, params)})
     # the kernel's joint count: the family's, where any trajectory has a joint
     joints = joint.shape[0] if joint is not None and np.isfinite(joint).any() else 0
@@ -360,6 +414,11 @@ def prepare_curve_run(curve: Curve, *, s0, u0=0.0, mu_k=0.0, mu_s=None, g=9.81, 
     if joints:
         for k, row in enumerate(joint):
             joint_rows[k] = np.broadcast_to(row, (n,))
+    if curve.family == "track":  # any number: offset and count of each row's in ``shared``
+        # (written even where no row has a joint: a chunk may run on the sweep's MANY kernel)
+        offsets, counts = track_joints(shared, params[0])
+        joint_rows = [offsets, counts]
+        joints = curve_kernel.MANY_JOINTS if (counts > 0).any() else 0
     start = flat["s0"]
     off = ~((start >= p_lo) & (start <= p_hi))
     if off.any():

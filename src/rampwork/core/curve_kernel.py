@@ -47,6 +47,7 @@ from . import status as st
 from .control import (ERROR_FLOOR, ERROR_TINY, FACTOR_MAX, FACTOR_MIN, SAFETY, exp2_approx,
                       log2_approx)
 from .curve_steppers import CURVE_STEPPERS, normal_along_n  # noqa: F401 (CURVE_STEPPERS: public)
+from .curve_track import branch_near
 from .jit import fma, jit
 
 # bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
@@ -61,8 +62,11 @@ ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 PI_ALPHA = PI_BETA = REJECT_EXPONENT = 0.0
 # the step takes the frame at its start as its last argument (curve_steppers.py)
 STEP_TAKES_FRAME = True
-JOINTS = 0  # the curve's joints (curvature jumps, 0 to 2): steps end there, and the
-# family reads its last shape parameter as the branch (core/curves.py)
+JOINTS = 0  # the curve's joints (curvature jumps: 0, 1, 2 or MANY_JOINTS): steps end
+# there, and the family reads its last shape parameter as the branch (core/curves.py)
+#: JOINTS for any number of joints: a trajectory's JOINT is the offset of its
+#: sorted joints in ``shared`` and JOINT2 their count (core/curve_track.py)
+MANY_JOINTS = 3
 ONE_SIDED = True  # a block on the curve's declared side (lift-off) rather than a bead
 FRICTION = True  # False: mu_k = 0 everywhere, no friction branch
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
@@ -92,7 +96,8 @@ INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", 
 # scalar code; then the trajectory's inputs; last SINNOW, KAPNOW, DPDSNOW:
 # with COSNOW the frame at P, as the last step's end evaluated it (the
 # next step's first stage, without joints: the same bits as evaluated anew);
-# JOINT2: the second joint (JOINT < JOINT2; NaN: none).
+# JOINT2: the second joint (JOINT < JOINT2; NaN: none).  With MANY_JOINTS,
+# JOINT and JOINT2 are the offset and count of the joints in ``shared``.
 (P, U, D, SN, T, HN, EPREV, REJB, WORK, CURV, DISP, PATH, PATHX, DRAGW, NUMIN, XNOW,
  COSNOW, STEPS, NREJ, INROW, NREV, PLIFT, STATUS, TRAJ, E0, KAPPA0, BRANCH, FLAG,
  MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW, JOINT2) = range(43)
@@ -374,7 +379,10 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
         return
     step_size = h_next if t + h_next <= t_max else t_max - t
     q = d * mu_k * sn
-    if JOINTS > 1:
+    if JOINTS == MANY_JOINTS:  # s3 from the last step's (core/curve_track.py)
+        s3, joint = branch_near(p, d, shared, int(joint), int(lanes[JOINT2 * LANES + i]), s3)
+        lanes[BRANCH * LANES + i] = s3
+    elif JOINTS == 2:
         s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
         lanes[BRANCH * LANES + i] = s3
     elif JOINTS:  # one joint: the only one a step may cross

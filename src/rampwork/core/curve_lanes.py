@@ -45,7 +45,8 @@ from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
     O_DISP, O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U,
     O_W, O_WD, O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1,
     S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, fresh,
-    store_frame)
+    MANY_JOINTS, store_frame)
+from .curve_track import branch_near, joints_behind
 from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, _stage_from, normal_along_n
 from .jit import fma, jit, specialise
 from .threads import current_threads, run_items
@@ -55,7 +56,7 @@ curve_frame = curve_point = try_step = accepted_factor = rejected_factor = None
 rest_rule = contact_sign = None
 start_lane = iterate = finish_lane = vector_step = vector_pass = run_tile = None
 ADAPTIVE = DRAG = False
-JOINTS = 0  # the curve's joints (0 to 2)
+JOINTS = 0  # the curve's joints (0, 1, 2 or MANY_JOINTS)
 ONE_SIDED = True
 VECTOR = True  # False: every step through curve_kernel._iterate (the scalar reference)
 #: vector steps between scalar passes: a lane whose step holds an event waits
@@ -131,6 +132,9 @@ def _start_lane(lanes, i, inputs, j, shared, h, side):
     lanes[C * LANES + i] = inputs[I_C, j]
     lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
     lanes[JOINT2 * LANES + i] = inputs[I_JOINT2, j]
+    if JOINTS == MANY_JOINTS:  # the branch that curve_track.branch_near keeps up
+        lanes[BRANCH * LANES + i] = 1.0 + joints_behind(
+            p, d, shared, int(inputs[I_JOINT, j]), int(inputs[I_JOINT2, j]))
 
 
 def _finish_lane(lanes, i, inputs, shared, out, status):
@@ -206,7 +210,9 @@ def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
     q = d * lanes[MUK * LANES + i] * sn
     if JOINTS:
         s3_before = s3
-        if JOINTS > 1:
+        if JOINTS == MANY_JOINTS:
+            s3, joint = branch_near(p, d, shared, int(joint), int(lanes[JOINT2 * LANES + i]), s3)
+        elif JOINTS == 2:
             s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
         else:  # one joint: the only one a step may cross
             s3 = branch(p, d, joint, math.nan)[0]
@@ -386,13 +392,15 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     ``CURVE_STEPPERS`` entry), compiled with only the effects asked for.
     ``vector=False``: the scalar reference (every step through ``_iterate``);
     ``joints``: the curve's joints (0 to 2; with one, the second's logic is
-    compiled out, with none all of it)."""
+    compiled out, with none all of it; ``MANY_JOINTS``: any number, a
+    sorted run of ``shared`` per trajectory)."""
     if method not in CURVE_STEPPERS:
         raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
     step, _, adaptive, control = CURVE_STEPPERS[method]
     flags = "".join(suffix for on, suffix in (
         (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
-        (drag_quadratic, "_dragc"), (joints == 1, "_joints"), (joints > 1, f"_joints{int(joints)}"),
+        (drag_quadratic, "_dragc"), (joints == 1, "_joints"), (joints == 2, "_joints2"),
+        (joints == MANY_JOINTS, "_jointsmany"),
         (not vector, "_scalar")) if on)
     name = f"curve_{key}_{method}{flags}"
     alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
