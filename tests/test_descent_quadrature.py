@@ -25,14 +25,14 @@ SHAPE = ChordModes(start=(0.0, 1.0), end=(2.0, 0.0), k=4)
 
 def _quadrature(shape, table, mu, rtol, v0=0.0, mu_s=None, t_max=60.0):
     """The core function's outputs for ``table``'s rows (A -> B of ``shape``)."""
-    sigma, matrices, offsets = dq.node_tables()
+    xi, jacobian, matrices, offsets = dq.node_tables()
     lo, hi = shape.domain
     direction = 1.0 if shape.start[0] < shape.end[0] else -1.0
     size = table.shape[0]
     out = [np.empty(size) for _ in range(5)] + [np.empty(size, np.int64), np.empty(size, np.bool_)]
     dq.descent_quadrature(np.asarray(shape.ramp(table).shared), np.arange(size, dtype=np.float64), shape.start[0],
                           direction, hi - lo, G, mu, mu if mu_s is None else mu_s, v0, t_max, rtol,
-                          dq.first_level(rtol), sigma, matrices, offsets, *out)
+                          xi, jacobian, matrices, offsets, *out)
     return dict(zip(("t_end", "work", "energy_end", "slope_end", "estimate", "nodes", "valid"), out))
 
 
@@ -47,9 +47,9 @@ def _population(seed, size, scale=0.1, shape=SHAPE):
 
 
 def test_the_integration_matrices_integrate_polynomials_exactly():
-    sigma, matrices, offsets = dq.node_tables()
-    finest = (sigma.size - 1) // dq.PANELS
-    tau = sigma[: finest + 1] * dq.PANELS
+    xi, jacobian, matrices, offsets = dq.node_tables()
+    finest = xi.size // dq.PANELS - 1
+    tau = xi[finest + 1: 2 * finest + 2] * dq.PANELS - 1.0  # panel 1: xi = h (1 + tau)
     for level, n in enumerate(dq.LEVELS):
         matrix = matrices[offsets[level]: offsets[level] + (n + 1) ** 2].reshape(n + 1, n + 1)
         points = tau[:: finest // n]
@@ -98,11 +98,11 @@ def test_against_the_tight_scipy_reference(mu, v0):
 
 
 def test_the_estimate_bounds_the_true_error():
-    table = _population(3, 16)
-    for rtol in (1e-5, 1e-7):
+    table = _population(3, 16, scale=0.2)
+    for rtol in (1e-5, 1e-7, 1e-9):
         result = _quadrature(SHAPE, table, 0.2, rtol)
         valid = np.flatnonzero(result["valid"])
-        assert valid.size >= 8
+        assert valid.size >= 6
         for r in valid:
             ref = _reference(SHAPE, table[r], 0.2)
             error = abs(result["t_end"][r] - ref["t_end"]) / ref["t_end"]

@@ -215,7 +215,7 @@ class ChordModes:
         size = table.shape[0]
         started = time.perf_counter()
         compiled = bool(quadrature.descent_quadrature.signatures)
-        sigma, matrices, offsets = quadrature.node_tables()
+        xi, jacobian, matrices, offsets = quadrature.node_tables()
         lo, hi = self.domain
         direction = 1.0 if self.start[0] < self.end[0] else -1.0
         rtol = scene.integrator.rtol
@@ -225,7 +225,7 @@ class ChordModes:
         quadrature.descent_quadrature(np.asarray(scene.ramp.shared, dtype=np.float64),
                                       np.arange(size, dtype=np.float64), self.start[0], direction, hi - lo,
                                       scene.g, scene.friction.mu_k, mu_s, scene.v0, scene.t_max, rtol,
-                                      quadrature.first_level(rtol), sigma, matrices, offsets, t_end, work,
+                                      xi, jacobian, matrices, offsets, t_end, work,
                                       energy_end, slope_end, estimate, nodes, valid)
         compile_s = 0.0 if compiled else time.perf_counter() - started
         status = np.full(size, EXITED, dtype=np.int8)
