@@ -47,6 +47,8 @@ ARRIVAL_TOLERANCE = 1e-9
 #: candidate; ``quadrature``: the descent by quadrature (core/descent_quadrature.py)
 #: where it is valid, the ODE kernel for the rest in the same call
 EVALUATORS = ("kernel", "quadrature")
+#: candidates per work item of the quadrature (items spread over threads)
+QUADRATURE_TILE = 64
 
 
 def _point(where: str, value) -> tuple[float, float]:
@@ -203,7 +205,8 @@ class ChordModes:
         """The kernel run's outputs that ``evaluate`` reads, by quadrature
         where valid and by the kernel (one call over the rest) elsewhere."""
         from .core import descent_quadrature as quadrature
-        from .runner import run_scene
+        from .core.threads import run_items, using_threads
+        from .runner import run_scene, thread_count
         from .schema import global_attrs, output_attrs
 
         if scene.drag.linear != 0.0 or scene.drag.quadratic != 0.0:
@@ -212,6 +215,7 @@ class ChordModes:
         if not scene.integrator.adaptive:
             raise ConfigError("evaluator", f"'quadrature' takes its tolerance from an adaptive integrator's "
                               f"rtol (dopri5 or dop853), got {scene.integrator.method!r}")
+        threads_used = thread_count(threads)
         size = table.shape[0]
         started = time.perf_counter()
         compiled = bool(quadrature.descent_quadrature.signatures)
@@ -222,12 +226,22 @@ class ChordModes:
         mu_s = scene.friction.mu_k if scene.friction.mu_s is None else scene.friction.mu_s
         t_end, work, energy_end, slope_end, estimate = (np.empty(size) for _ in range(5))
         nodes, valid = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.bool_)
-        quadrature.descent_quadrature(np.asarray(scene.ramp.shared, dtype=np.float64),
-                                      np.arange(size, dtype=np.float64), self.start[0], direction, hi - lo,
-                                      scene.g, scene.friction.mu_k, mu_s, scene.v0, scene.t_max, rtol,
-                                      xi, jacobian, matrices, offsets, t_end, work,
-                                      energy_end, slope_end, estimate, nodes, valid)
-        compile_s = 0.0 if compiled else time.perf_counter() - started
+        shared = np.asarray(scene.ramp.shared, dtype=np.float64)
+        rows = np.arange(size, dtype=np.float64)
+        settings = (self.start[0], direction, hi - lo, scene.g, scene.friction.mu_k, mu_s, scene.v0,
+                    scene.t_max, rtol, xi, jacobian, matrices, offsets)
+        outputs = (t_end, work, energy_end, slope_end, estimate, nodes, valid)
+
+        def run_tiles(first, stop):  # tiles of QUADRATURE_TILE candidates: each candidate alone
+            tiles = slice(first * QUADRATURE_TILE, stop * QUADRATURE_TILE)
+            quadrature.descent_quadrature(shared, rows[tiles], *settings, *(out[tiles] for out in outputs))
+
+        compile_s = 0.0
+        if not compiled:  # compile (or load from numba's disk cache) on one tile, timed apart
+            run_tiles(0, 1)
+            compile_s = time.perf_counter() - started
+        with using_threads(threads_used):
+            run_items(run_tiles, -(-size // QUADRATURE_TILE))
         status = np.full(size, EXITED, dtype=np.int8)
         x_end = np.full(size, self.end[0])
         x_lift_off = np.full(size, np.nan)
