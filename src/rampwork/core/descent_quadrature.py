@@ -198,8 +198,11 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                     panel_t += weight * math.sqrt(1.0 + fp[j] * fp[j]) * speed_factor
                     panel_w += weight * (g + 2.0 * e * bend[j]) * jacobian
                 if not (math.isfinite(panel_t) and math.isfinite(panel_w) and math.isfinite(panel_c)):
-                    break
-                if level == 0:
+                    # E <= 0 at a point of a level too coarse to see the panel: refine
+                    previous_t = previous_w = previous_c = np.nan
+                    previous_change = 1.0
+                    continue
+                if level == 0 or not math.isfinite(previous_t):
                     previous_t, previous_w, previous_c = panel_t, panel_w, panel_c
                     continue
                 end_energy = carried + panel_c
