@@ -237,3 +237,17 @@ def test_the_optimiser_with_quadrature_finds_the_kernels_optimum():
     assert runs[1].attrs["best_objective"] == pytest.approx(runs[0].attrs["best_objective"], rel=1e-7)
     np.testing.assert_allclose(runs[1]["best_parameters"].values[-1], runs[0]["best_parameters"].values[-1],
                                atol=1e-3)
+
+
+def test_the_optimise_table_takes_the_evaluator():
+    from rampwork.cli import example_text
+    from rampwork.optimise_cli import read_optimisation
+    from rampwork.scenefile import read_toml
+
+    data = read_toml(example_text("least_work"))
+    data["optimise"]["evaluator"] = "quadrature"
+    _, _, settings = read_optimisation(data, "least_work.toml")
+    assert settings.evaluator == "quadrature"
+    data["optimise"]["evaluator"] = "spectral"
+    with pytest.raises(ConfigError, match="optimise.evaluator"):
+        read_optimisation(data, "least_work.toml")
