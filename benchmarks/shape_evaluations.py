@@ -12,7 +12,14 @@ points), and the ratio is taken at E = 1e-6, 1e-8 and 1e-10.  The rtol-paired
 table of earlier runs (same rtol on both sides, errors not matched) is kept
 beside it.  The batch: 1-thread CPU time (the headline: like for like with
 the single-threaded scipy loop) and 2-thread wall time; its compile time
-apart.  A second row: ``descent_shapes.CuspCurve`` (the convex_cusp family on
+apart.  The quadrature row: ``ChordModes.evaluate(..., evaluator="quadrature")``
+(core/descent_quadrature.py: the linear energy equation by panels of
+spectral quadrature, the dopri5 kernel at the same rtol for the candidates it
+cannot prove valid, in the same call), with its share of candidates by
+quadrature and its points per candidate; and, for transparency, a loop of
+``scipy.integrate.quad`` over the SAME formula per candidate (nested: E at
+each outer point by an inner quad), so the gain of the formula and the gain of
+the batch engine show apart.  A second row: ``descent_shapes.CuspCurve`` (the convex_cusp family on
 the curve kernel), its error against an independent quadrature of the descent
 time (no scipy loop exists for the curve form: its cost per candidate is set
 beside the ChordModes loop's at the same error).
@@ -53,8 +60,10 @@ PAIRS = (("rtol 1e-6", 1e-6, "RK45", 1e-6), ("rtol 1e-8", 1e-8, "DOP853", 1e-8),
 MATCHED_ERRORS = (1e-6, 1e-8, 1e-10)
 HALF_DECADES = tuple(10.0 ** (-e / 2) for e in range(8, 23))  # 1e-4 .. 1e-11
 GRIDS = {"batch": {"dopri5": HALF_DECADES[2:], "dop853": HALF_DECADES[4:]},
-         "scipy": {"RK45": HALF_DECADES[:10], "DOP853": HALF_DECADES[4:]}}
-QUICK_GRIDS = {"batch": {"dopri5": (1e-6, 1e-8, 1e-10)}, "scipy": {"RK45": (1e-6,), "DOP853": (1e-8, 1e-10)}}
+         "scipy": {"RK45": HALF_DECADES[:10], "DOP853": HALF_DECADES[4:]},
+         "quadrature": HALF_DECADES[2:], "scipy_quad": (1e-6, 1e-8, 1e-10)}
+QUICK_GRIDS = {"batch": {"dopri5": (1e-6, 1e-8, 1e-10)}, "scipy": {"RK45": (1e-6,), "DOP853": (1e-8, 1e-10)},
+               "quadrature": (1e-6, 1e-8, 1e-10), "scipy_quad": (1e-6, 1e-10)}
 
 
 def population(shape, scene, n: int, seed: int) -> np.ndarray:
@@ -73,6 +82,40 @@ def scipy_loop(shape, scene, table, method: str, rtol: float):
 
     return np.array([reference_trajectory(scene, ramp=shape.ramp(row[None, :]), x0=START[0], method=method,
                                           rtol=rtol, atol=rtol)["t_end"] for row in table])
+
+
+def quad_descent_time(shape, row, rtol):
+    """The time to B of ``shape``'s candidate ``row`` from rest by
+    ``scipy.integrate.quad`` of the formula core/descent_quadrature.py uses
+    (xi = L sigma^2 from A; E(xi) by an inner quad at each outer point)."""
+    from scipy.integrate import quad
+
+    length = abs(END[0] - START[0])
+    chord = (END[1] - START[1]) / (END[0] - START[0])
+    w = math.pi / length
+    modes = [(j * w, c * j * w) for j, c in enumerate(row.tolist(), start=1)]
+
+    def slope(x):  # f' in closed form (START[0] = 0 is the domain's low end)
+        return chord + sum(a * math.cos(k * x) for k, a in modes)
+
+    slope_a = slope(START[0])
+    atan_a = math.atan(slope_a)
+
+    def grow(fp):
+        return math.exp(2 * MU * (math.atan(fp) - atan_a))
+
+    def energy_integrand(sigma):
+        fp = slope(START[0] + length * sigma * sigma)
+        return -G * (fp + MU) * grow(fp) * 2 * length * sigma
+
+    def time_integrand(sigma):
+        if sigma == 0.0:
+            return math.sqrt(1 + slope_a**2) * 2 * math.sqrt(length / (2 * -G * (slope_a + MU)))
+        fp = slope(START[0] + length * sigma * sigma)
+        energy = quad(energy_integrand, 0.0, sigma, epsabs=0.0, epsrel=rtol, limit=200)[0] / grow(fp)
+        return math.sqrt(1 + fp * fp) * 2 * length * sigma / math.sqrt(2 * energy)
+
+    return quad(time_integrand, 0.0, 1.0, epsabs=0.0, epsrel=rtol, limit=200)[0]
 
 
 def cusp_descent_time(c, angle, mu, n=96):
@@ -133,6 +176,8 @@ def main(argv=None) -> int:
                         help="candidates the scipy loop and the error run (default 24)")
     parser.add_argument("--cusp-n", type=int, default=512,
                         help="CuspCurve candidates per call (default 512: its cost per candidate is flat in S)")
+    parser.add_argument("--quad-n", type=int, default=6,
+                        help="candidates the scipy.integrate.quad loop runs (default 6: ~0.1-1 s each)")
     parser.add_argument("--repeat", type=int, default=3, help="interleaved repeats (best of)")
     parser.add_argument("--quick", action="store_true", help="only the rtol-paired grid points")
     parser.add_argument("--out", type=Path, default=_common.RESULTS_DIR)
@@ -167,7 +212,20 @@ def main(argv=None) -> int:
     def error_of(t_end, reference):
         return float(np.max(np.abs(t_end[:len(reference)] - reference) / reference))
 
-    batch, scipy_side, cusp_side = {}, {}, {}
+    batch, scipy_side, cusp_side, quad_side, scipy_quad = {}, {}, {}, {}, {}
+    for rtol in grids["quadrature"]:
+        scene = base.replace(integrator=rw.Integrator("dopri5", rtol=rtol))
+        first = shape.evaluate(table, scene, threads=1, evaluator="quadrature")
+        quad_side[rtol] = dict(compile_s=float(first.attrs["compile_time_s"]), cpu=[], wall2=[],
+                               error=error_of(first["t_end"].values, truth),
+                               share=float(first.attrs["quadrature_share"]),
+                               points=float(first.attrs["quadrature_nodes_mean"]))
+    quad_subset = subset[:args.quad_n]
+    for rtol in grids["scipy_quad"]:
+        started = time.process_time()
+        values = np.array([quad_descent_time(shape, row, rtol) for row in quad_subset])
+        scipy_quad[rtol] = dict(cpu_per_candidate_s=(time.process_time() - started) / len(quad_subset),
+                                error=error_of(values, truth[:len(quad_subset)]))
     for method, rtols in grids["batch"].items():
         for rtol in rtols:
             scene = base.replace(integrator=rw.Integrator(method, rtol=rtol))
@@ -192,9 +250,16 @@ def main(argv=None) -> int:
                 timed(lambda: cusp.evaluate(cusp_table, cscene, threads=1), time.process_time)[1])
             cusp_side[method, rtol]["wall2"].append(
                 timed(lambda: cusp.evaluate(cusp_table, cscene, threads=2), time.perf_counter)[1])
+        for rtol, entry in quad_side.items():
+            scene = base.replace(integrator=rw.Integrator("dopri5", rtol=rtol))
+            entry["cpu"].append(timed(lambda: shape.evaluate(table, scene, threads=1, evaluator="quadrature"),
+                                      time.process_time)[1])
+            entry["wall2"].append(timed(lambda: shape.evaluate(table, scene, threads=2, evaluator="quadrature"),
+                                        time.perf_counter)[1])
         for (method, rtol), entry in scipy_side.items():
             entry["cpu"].append(timed(lambda: scipy_loop(shape, base, subset, method, rtol), time.process_time)[1])
-    for entries, n in ((batch, len(table)), (cusp_side, len(cusp_table)), (scipy_side, len(subset))):
+    for entries, n in ((batch, len(table)), (cusp_side, len(cusp_table)), (scipy_side, len(subset)),
+                       (quad_side, len(table))):
         for entry in entries.values():
             entry["cpu_per_candidate_s"] = min(entry.pop("cpu")) / n
             if "wall2" in entry:
@@ -221,6 +286,9 @@ def main(argv=None) -> int:
               "batch_wall2": front_of(batch, "wall2_per_candidate_s"),
               "cusp_cpu": front_of(cusp_side, "cpu_per_candidate_s"),
               "cusp_wall2": front_of(cusp_side, "wall2_per_candidate_s"),
+              "quadrature_cpu": front_of(quad_side, "cpu_per_candidate_s"),
+              "quadrature_wall2": front_of(quad_side, "wall2_per_candidate_s"),
+              "scipy_quad_cpu": front_of(scipy_quad, "cpu_per_candidate_s"),
               "scipy_cpu": front_of(scipy_side, "cpu_per_candidate_s")}
     matched = {}
     print("\nat equal error of t_end (each side's cheapest tolerance, log-log interpolated): us per candidate")
@@ -241,14 +309,29 @@ def main(argv=None) -> int:
               f"({x(row['ratio_batch_cpu'])}), 2 threads wall {us(costs['batch_wall2'])} "
               f"({x(row['ratio_batch_wall2'])}); CuspCurve 1 thread {us(costs['cusp_cpu'])} "
               f"({x(row['ratio_cusp_cpu'])}), 2 threads {us(costs['cusp_wall2'])}")
+        print(f"               quadrature 1 thread {us(costs['quadrature_cpu'])} "
+              f"({x(row['ratio_quadrature_cpu'])}), 2 threads wall {us(costs['quadrature_wall2'])} "
+              f"({x(row['ratio_quadrature_wall2'])}); scipy.integrate.quad of the same formula "
+              f"{us(costs['scipy_quad_cpu'])} ({x(row['ratio_scipy_quad_cpu'])})")
 
     def listing(entries):
         return {f"{method} {rtol:.1e}": entry for (method, rtol), entry in entries.items()}
+
+    print("\nquadrature evaluator by rtol: error of t_end, us per candidate (1 thread), share by quadrature, "
+          "points per candidate, compile s")
+    for rtol, entry in quad_side.items():
+        print(f"  rtol {rtol:.1e}: error {entry['error']:.1e}, {entry['cpu_per_candidate_s'] * 1e6:7.2f} us, "
+              f"share {entry['share']:.3f}, {entry['points']:.0f} points, compile {entry['compile_s']:.2f} s")
+    for rtol, entry in scipy_quad.items():
+        print(f"  scipy.integrate.quad, epsrel {rtol:.1e}: error {entry['error']:.1e}, "
+              f"{entry['cpu_per_candidate_s'] * 1e6:9.0f} us per candidate ({len(quad_subset)} candidates)")
 
     path = args.out / f"shape_evaluations-{_common.timestamp()}.json"
     _common.save_json(path, dict(machine=_common.machine_info(), when=_common.utc_now(), n=len(table),
                                  scipy_n=len(subset), repeat=args.repeat, results=paired, matched=matched,
                                  batch=listing(batch), scipy=listing(scipy_side), cusp=listing(cusp_side),
+                                 quadrature={f"{r:.1e}": e for r, e in quad_side.items()},
+                                 scipy_quad={f"{r:.1e}": e for r, e in scipy_quad.items()},
                                  fronts=fronts))
     print(f"saved {path}")
     return 0

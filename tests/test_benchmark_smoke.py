@@ -100,3 +100,8 @@ def test_shape_evaluations_benchmark_reports_matched_accuracy(tmp_path):
         costs, errors = [c for _, c in front], [e for e, _ in front]
         assert costs == sorted(costs) and errors == sorted(errors, reverse=True)
     assert all(entry["error"] < 1e-4 for entry in saved["cusp"].values())  # against the quadrature
+    # the quadrature evaluator's row: its error to its rtol, most candidates by quadrature
+    for rtol, entry in saved["quadrature"].items():
+        assert entry["error"] < 100 * float(rtol) and entry["share"] > 0.5 and entry["points"] > 0
+    assert matched["quadrature_cpu"] > 0 and matched["ratio_quadrature_cpu"] > 0
+    assert all(entry["error"] < 1e-5 for entry in saved["scipy_quad"].values())

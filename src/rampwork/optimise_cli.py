@@ -47,7 +47,7 @@ SHAPE_KEYS = ("shape", "start", "end", "k", "amplitude", "decay", "y_low", "y_hi
 KEYS_OF_SHAPE = {"chord_modes": ("shape", "start", "end", "k", "amplitude", "decay", "y_low", "y_high"),
                  "cusp_curve": ("shape", "end", "k", "bound", "decay")}
 SETTINGS_KEYS = ("objective", "sense", "constraints", "seed", "popsize", "maxiter", "tol", "atol",
-                 "mutation", "recombination", "init", "penalty", "polish", "polish_step", "x0")
+                 "mutation", "recombination", "init", "penalty", "polish", "polish_step", "x0", "evaluator")
 OPTIMISE_KEYS = SHAPE_KEYS + SETTINGS_KEYS
 EXIT_OK = 0
 

@@ -31,6 +31,7 @@ from . import validate
 from .core.status import LIFTED_OFF
 from .errors import ConfigError
 from .schema import OPTIMISE_OUTPUTS, global_attrs, spec_attrs
+from .shapes import ChordModes
 
 __all__ = ["CONSTRAINTS", "OBJECTIVES", "OptimiseSettings", "SENSES", "optimise", "penalised"]
 
@@ -63,7 +64,9 @@ class OptimiseSettings:
     differences of step ``polish_step`` (share of each bound's width), each
     gradient ONE batched call of 2K + 1 candidates.  ``x0``: a candidate
     (K numbers, inside the shape's bounds) that replaces one member of the
-    first population, e.g. the optimum of a smaller K padded with zeros."""
+    first population, e.g. the optimum of a smaller K padded with zeros.
+    ``evaluator``: how a ChordModes population is run (``kernel``, the
+    default, or ``quadrature``: see ``ChordModes.evaluate``)."""
 
     objective: str = "t_end"
     sense: str = "minimise"
@@ -80,8 +83,10 @@ class OptimiseSettings:
     polish: bool = False
     polish_step: float = 1e-5
     x0: tuple[float, ...] | None = None
+    evaluator: str = "kernel"
 
     def __post_init__(self):
+        validate.choice("optimise.evaluator", self.evaluator, ("kernel", "quadrature"))
         validate.choice("optimise.objective", self.objective, OBJECTIVES)
         validate.choice("optimise.sense", self.sense, SENSES)
         constraints = self.constraints
@@ -173,6 +178,8 @@ def _fingerprint(scene, shape, settings: OptimiseSettings) -> str:
     which a resumed run may raise)."""
     data = settings.to_dict()
     data.pop("maxiter")
+    if data["evaluator"] == "kernel":  # as before the setting existed: older checkpoints resume
+        data.pop("evaluator")
     text = json.dumps([repr(scene), shape.describe(), list(map(list, shape.bounds)), data], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()
 
@@ -222,7 +229,11 @@ class _Run:
             x0=None if settings.x0 is None else np.array(settings.x0))
 
     def evaluate(self, population: np.ndarray) -> xr.Dataset:
-        dataset = self.shape.evaluate(population, self.scene, threads=self.threads)
+        if self.settings.evaluator == "kernel":
+            dataset = self.shape.evaluate(population, self.scene, threads=self.threads)
+        else:
+            dataset = self.shape.evaluate(population, self.scene, threads=self.threads,
+                                          evaluator=self.settings.evaluator)
         self.evaluations += population.shape[0]
         return dataset
 
@@ -336,6 +347,9 @@ def optimise(scene, shape, objective: str = "t_end", constraints=("arrive", "sta
         if not hasattr(shape, name):
             raise ConfigError("shape", f"expected a shape family (names, bounds, evaluate), got "
                               f"{type(shape).__name__} without {name!r}")
+    if settings.evaluator != "kernel" and not isinstance(shape, ChordModes):
+        raise ConfigError("optimise.evaluator", f"{settings.evaluator!r} evaluates ChordModes shapes only, "
+                          f"not {type(shape).__name__}; use 'kernel'")
     if settings.x0 is not None:
         bounds = np.array(shape.bounds, dtype=np.float64)
         x0 = np.array(settings.x0)

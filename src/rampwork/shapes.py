@@ -23,6 +23,7 @@ sweep over its ``row``, so the kernel compiles once (not once per population).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,12 +37,18 @@ from .scene import Friction, Integrator, Scene, Sweep
 from .schema import spec_attrs
 from .schema import OPTIMISE_OUTPUTS
 
-__all__ = ["ChordModes", "SHAPE_OUTPUTS"]
+__all__ = ["ChordModes", "EVALUATORS", "SHAPE_OUTPUTS"]
 
 #: the variables every shape family's ``evaluate`` returns (the protocol)
 SHAPE_OUTPUTS = ("t_end", "W_friction", "W_excess", "speed_end", "status", "arrived", "admissible")
 #: an exit within this share of the chord's horizontal length from B counts as at B
 ARRIVAL_TOLERANCE = 1e-9
+#: how ``evaluate`` runs a population: ``kernel``: the ODE kernel for every
+#: candidate; ``quadrature``: the descent by quadrature (core/descent_quadrature.py)
+#: where it is valid, the ODE kernel for the rest in the same call
+EVALUATORS = ("kernel", "quadrature")
+#: candidates per work item of the quadrature (items spread over threads)
+QUADRATURE_TILE = 64
 
 
 def _point(where: str, value) -> tuple[float, float]:
@@ -139,22 +146,34 @@ class ChordModes:
         settings.setdefault("integrator", Integrator("dopri5", rtol=1e-8))
         return Scene(ramp=self.ramp(np.zeros((1, self.k))), x0=self.start[0], **settings)
 
-    def evaluate(self, population, scene: Scene, *, threads: int | None = None) -> xr.Dataset:
+    def evaluate(self, population, scene: Scene, *, threads: int | None = None,
+                 evaluator: str = "kernel") -> xr.Dataset:
         """Run one trajectory per row of ``population`` (S, K) from A (with
         ``scene``'s v0) towards B in ONE batched call; the Dataset on
         ``candidate`` holds :data:`SHAPE_OUTPUTS` and ``x_end``, ``inside``,
-        ``stayed_on``, ``shortfall`` and the ``coefficients``."""
+        ``stayed_on``, ``shortfall`` and the ``coefficients``.
+
+        ``evaluator`` (:data:`EVALUATORS`): ``"quadrature"`` computes each
+        candidate that slides from A to B in contact (drag-free scenes with an
+        adaptive integrator, whose rtol it meets) by quadrature of the
+        linear energy equation, and runs the rest (stops, reversals,
+        lift-off, grazes, unresolved) on the kernel in the same call:
+        statuses and penalties are the kernel's (docs/optimise.md)."""
         from .runner import run_scene
 
         if not isinstance(scene, Scene):
             raise ConfigError("scene", f"expected a rampwork.Scene, got {type(scene).__name__}")
+        validate.choice("evaluator", evaluator, EVALUATORS)
         table = self._population(population)
         rows = np.arange(table.shape[0], dtype=np.float64)
-        # the scene file is not stored: the Dataset keeps the attributes
-        # below and the table itself, and writing the table as text cost a
-        # fifth of the call at rtol 1e-6
-        run = run_scene(scene.replace(ramp=self.ramp(table), x0=self.start[0], record=type(scene.record)()),
-                        Sweep.cases(row=rows), threads=threads, store_scene=False)
+        ramp_scene = scene.replace(ramp=self.ramp(table), x0=self.start[0], record=type(scene.record)())
+        if evaluator == "quadrature":
+            run = self._quadrature(ramp_scene, table, threads)
+        else:
+            # the scene file is not stored: the Dataset keeps the attributes
+            # below and the table itself, and writing the table as text cost a
+            # fifth of the call at rtol 1e-6
+            run = run_scene(ramp_scene, Sweep.cases(row=rows), threads=threads, store_scene=False)
         lo, hi = self.domain
         length = hi - lo
         x_end = run["x_end"].values
@@ -176,10 +195,77 @@ class ChordModes:
             data[name] = ("candidate", values, spec_attrs(OPTIMISE_OUTPUTS[name]))
         data["coefficients"] = (("candidate", "parameter"), table, spec_attrs(OPTIMISE_OUTPUTS["coefficients"]))
         attrs = {key: run.attrs[key] for key in ("Conventions", "source", "history", "integrator_method",
-                                                 "compile_time_s", "run_time_s") if key in run.attrs}
+                                                 "compile_time_s", "run_time_s", "evaluator",
+                                                 "quadrature_share", "quadrature_nodes_mean") if key in run.attrs}
         attrs["title"] = f"rampwork shape evaluation: {self.describe()}"
         attrs["shape"] = self.describe()
         return xr.Dataset(data, coords={"candidate": candidate, "parameter": list(self.names)}, attrs=attrs)
+
+    def _quadrature(self, scene: Scene, table: np.ndarray, threads) -> xr.Dataset:
+        """The kernel run's outputs that ``evaluate`` reads, by quadrature
+        where valid and by the kernel (one call over the rest) elsewhere."""
+        from .core import descent_quadrature as quadrature
+        from .core.threads import run_items, using_threads
+        from .runner import run_scene, thread_count
+        from .schema import global_attrs, output_attrs
+
+        if scene.drag.linear != 0.0 or scene.drag.quadratic != 0.0:
+            raise ConfigError("evaluator", "'quadrature' needs a drag-free scene (its energy equation is "
+                              "linear only without drag); use evaluator 'kernel'")
+        if not scene.integrator.adaptive:
+            raise ConfigError("evaluator", f"'quadrature' takes its tolerance from an adaptive integrator's "
+                              f"rtol (dopri5 or dop853), got {scene.integrator.method!r}")
+        threads_used = thread_count(threads)
+        size = table.shape[0]
+        started = time.perf_counter()
+        compiled = bool(quadrature.descent_quadrature.signatures)
+        xi, jacobian, matrices, offsets = quadrature.node_tables()
+        lo, hi = self.domain
+        direction = 1.0 if self.start[0] < self.end[0] else -1.0
+        rtol = scene.integrator.rtol
+        mu_s = scene.friction.mu_k if scene.friction.mu_s is None else scene.friction.mu_s
+        t_end, work, energy_end, slope_end, estimate = (np.empty(size) for _ in range(5))
+        nodes, valid = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.bool_)
+        shared = np.asarray(scene.ramp.shared, dtype=np.float64)
+        rows = np.arange(size, dtype=np.float64)
+        settings = (self.start[0], direction, hi - lo, scene.g, scene.friction.mu_k, mu_s, scene.v0,
+                    scene.t_max, rtol, xi, jacobian, matrices, offsets)
+        outputs = (t_end, work, energy_end, slope_end, estimate, nodes, valid)
+
+        def run_tiles(first, stop):  # tiles of QUADRATURE_TILE candidates: each candidate alone
+            tiles = slice(first * QUADRATURE_TILE, stop * QUADRATURE_TILE)
+            quadrature.descent_quadrature(shared, rows[tiles], *settings, *(out[tiles] for out in outputs))
+
+        compile_s = 0.0
+        if not compiled:  # compile (or load from numba's disk cache) on one tile, timed apart
+            run_tiles(0, 1)
+            compile_s = time.perf_counter() - started
+        with using_threads(threads_used):
+            run_items(run_tiles, -(-size // QUADRATURE_TILE))
+        status = np.full(size, EXITED, dtype=np.int8)
+        x_end = np.full(size, self.end[0])
+        x_lift_off = np.full(size, np.nan)
+        v_end = direction * np.sqrt(2.0 * energy_end / (1.0 + slope_end * slope_end))
+        w_friction = scene.m * work
+        w_excess = w_friction - scene.friction.mu_k * scene.m * scene.g * (hi - lo)
+        rest = np.flatnonzero(~valid)
+        if rest.size:
+            run = run_scene(scene, Sweep.cases(row=rest.astype(np.float64)), threads=threads, store_scene=False)
+            compile_s += float(run.attrs.get("compile_time_s", 0.0))
+            for name, values in (("status", status), ("t_end", t_end), ("x_end", x_end), ("v_end", v_end),
+                                 ("W_friction", w_friction), ("W_excess", w_excess), ("x_lift_off", x_lift_off)):
+                values[rest] = run[name].values
+        names = ("status", "t_end", "x_end", "v_end", "W_friction", "W_excess", "x_lift_off")
+        data = {name: ("candidate", values, output_attrs(name)) for name, values in
+                zip(names, (status, t_end, x_end, v_end, w_friction, w_excess, x_lift_off))}
+        attrs = global_attrs(scene.title, "", f"rampwork.ChordModes.evaluate: {size} candidates, "
+                             f"{size - rest.size} by quadrature, {rest.size} by {scene.integrator.describe()}",
+                             {"integrator_method": scene.integrator.method, "evaluator": "quadrature",
+                              "quadrature_share": (size - rest.size) / size,
+                              "quadrature_nodes_mean": float(nodes[valid].mean()) if rest.size < size else 0.0,
+                              "compile_time_s": compile_s,
+                              "run_time_s": time.perf_counter() - started - compile_s})
+        return xr.Dataset(data, attrs=attrs)
 
     # -- the shapes themselves ------------------------------------------------
 
