@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 
 from . import vmath
-from .curves import _GL_NODES, _GL_WEIGHTS, CLOTHOID_PANEL
+from .curves import clothoid_offset as track_offset
 from .jit import jit
 
 
@@ -102,31 +102,11 @@ def track_frame(p, p0, p1, p2, p3, shared):
 
 
 @jit
-def track_offset(sigma, phi0, k0, c):
-    """∫_0^sigma (cos phi, sin phi) with phi = phi0 + t (k0 + c t / 2): the
-    8-node Gauss-Legendre rule on panels of at most CLOTHOID_PANEL rad."""
-    phase = abs(k0) * abs(sigma) + 0.5 * abs(c) * sigma * sigma
-    panels = 1 + int(phase / CLOTHOID_PANEL)
-    width = sigma / panels
-    x = 0.0
-    y = 0.0
-    for i in range(panels):
-        centre = (i + 0.5) * width
-        for j in range(4):
-            for sign in (-1.0, 1.0):
-                t = centre + sign * (0.5 * width) * _GL_NODES[j]
-                sin_phi, cos_phi = vmath.sincos(phi0 + t * (k0 + 0.5 * c * t))
-                x += _GL_WEIGHTS[j] * cos_phi
-                y += _GL_WEIGHTS[j] * sin_phi
-    return 0.5 * width * x, 0.5 * width * y
-
-
-@jit
 def piece_offset(sigma, phi0, k0, c):
     """The point's offset along a piece: for a straight or an arc (c = 0) in
     closed form, the chord 2 sin(k0 sigma / 2) / k0 at the mean angle (no
     cancellation, one sincos where the quadrature takes 8 or more); for a
-    clothoid, :func:`track_offset`."""
+    clothoid, :func:`rampwork.core.curves.clothoid_offset`."""
     if c != 0.0:
         return track_offset(sigma, phi0, k0, c)
     half = 0.5 * k0 * sigma

@@ -119,21 +119,29 @@ def clothoid_frame(p, p0, p1, p2, p3, shared):
 
 
 @jit
-def clothoid_point(p, p0, p1, p2, p3, shared):
-    phase = abs(p2) * abs(p) + 0.5 * p * p / (p0 * p0)
+def clothoid_offset(sigma, phi0, k0, c):
+    """∫_0^sigma (cos phi, sin phi) with phi = phi0 + t (k0 + c t / 2): the
+    8-node Gauss-Legendre rule on panels of at most CLOTHOID_PANEL rad (the
+    clothoid family's point, and a track's clothoid pieces)."""
+    phase = abs(k0) * abs(sigma) + 0.5 * abs(c) * sigma * sigma
     panels = 1 + int(phase / CLOTHOID_PANEL)
-    width = p / panels
+    width = sigma / panels
     x = 0.0
     y = 0.0
-    for k in range(panels):
-        centre = (k + 0.5) * width
+    for i in range(panels):
+        centre = (i + 0.5) * width
         for j in range(4):
             for sign in (-1.0, 1.0):
-                s = centre + sign * (0.5 * width) * _GL_NODES[j]
-                sin_phi, cos_phi = vmath.sincos(p3 + s * (p2 + 0.5 * s / (p0 * p0)))
+                t = centre + sign * (0.5 * width) * _GL_NODES[j]
+                sin_phi, cos_phi = vmath.sincos(phi0 + t * (k0 + 0.5 * c * t))
                 x += _GL_WEIGHTS[j] * cos_phi
                 y += _GL_WEIGHTS[j] * sin_phi
     return 0.5 * width * x, 0.5 * width * y
+
+
+@jit
+def clothoid_point(p, p0, p1, p2, p3, shared):
+    return clothoid_offset(p, p3, p2, 1.0 / (p0 * p0))
 
 
 # ---------------------------------------------------------------------------
