@@ -182,7 +182,7 @@ def hermite_root(value0, slope0, value1, slope1):
     interval or the data are not finite (a guess: the trial steps decide)."""
     secant = value0 / (value0 - value1)
     theta = secant
-    for _ in range(4):
+    for _ in range(6):  # quadratic convergence from the secant's root
         t2 = theta * theta
         t3 = t2 * theta
         cubic = ((2.0 * t3 - 3.0 * t2 + 1.0) * value0 + (t3 - 2.0 * t2 + theta) * slope0
