@@ -17,9 +17,10 @@ other), and ``s_nu nu`` reaching 0 is lift-off; two-sided: a sign change of
 Events (a stop, lift-off or a contact switch, an exit, a non-finite state) are
 located inside the step on the step size with the scene's own method, to
 rounding: the largest clean step size and the smallest that is not are
-adjacent floats, and the step of the latter is committed (secant guesses
-on the failing condition, bisection as the safeguard: :func:`_locate_event`).  Then the
-rest rule (§5) decides at a stop.
+adjacent floats, and the step of the latter is committed (guesses from
+the cubic through the failing condition's values and slopes in the step
+size, bisection as the safeguard: :func:`_locate_event`).  Then the rest
+rule (§5) decides at a stop.
 
 This module holds a trajectory's scalar parts, on the lane state of
 ``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
