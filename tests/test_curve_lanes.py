@@ -148,27 +148,3 @@ def test_simulate_runs_curve_scenes_on_the_threads_asked_for():
         np.testing.assert_array_equal(one[name].values, two[name].values)
     codes = set(np.unique(one.status.values).tolist())
     assert {st.EXITED, st.LIFTED_OFF} <= codes, codes
-
-
-def test_event_guess_cubic_finds_the_root_of_the_data_it_is_given():
-    """The event locator's guess (curve_kernel.hermite_root): the root in
-    [0, 1] of the cubic through two values and slopes; exact for a cubic (and
-    so for the linear condition of an Euler step), the secant's root where a
-    slope is not finite.  A guess only (the trial steps decide the bracket),
-    but a poor one costs trial steps."""
-    from rampwork.core.curve_kernel import hermite_root
-
-    def cubic(theta, root):  # c(theta) = (root - theta)(1 + theta)(2 + theta)
-        value = (root - theta) * (1.0 + theta) * (2.0 + theta)
-        slope = (-(1.0 + theta) * (2.0 + theta) + (root - theta) * (2.0 + theta)
-                 + (root - theta) * (1.0 + theta))
-        return value, slope
-
-    for root in (1e-6, 0.1, 0.5, 0.93, 1.0 - 1e-9):
-        (v0, m0), (v1, m1) = cubic(0.0, root), cubic(1.0, root)
-        assert abs(hermite_root(v0, m0, v1, m1) - root) < 1e-12
-    # a line: its root, from values alone
-    assert hermite_root(3.0, -4.0, -1.0, -4.0) == 0.75
-    # a curve whose slopes are not finite (a cusp): the secant's root
-    assert hermite_root(1.0, np.inf, -3.0, -1.0) == 0.25
-    assert hermite_root(1.0, np.nan, -1.0, -1.0) == 0.5

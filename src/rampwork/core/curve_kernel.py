@@ -17,10 +17,9 @@ other), and ``s_nu nu`` reaching 0 is lift-off; two-sided: a sign change of
 Events (a stop, lift-off or a contact switch, an exit, a non-finite state) are
 located inside the step on the step size with the scene's own method, to
 rounding: the largest clean step size and the smallest that is not are
-adjacent floats, and the step of the latter is committed (guesses from
-the cubic through the failing condition's values and slopes in the step
-size, bisection as the safeguard: :func:`_locate_event`).  Then the rest
-rule (§5) decides at a stop.
+adjacent floats, and the step of the latter is committed (secant guesses
+on the failing condition, bisection as the safeguard: :func:`_locate_event`).  Then the
+rest rule (§5) decides at a stop.
 
 This module holds a trajectory's scalar parts, on the lane state of
 ``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
@@ -53,12 +52,9 @@ from .jit import fma, jit
 # bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
 curve_frame = curve_point = curve_step = try_step = rest_rule = None
 contact_sign = x_travelled = accepted_factor = rejected_factor = None
-locate_event = event_guess = end_state = stage_from = None
+locate_event = event_guess = None
 #: the event locator's least push past a guess, relative to it (2 ulps or so)
 PUSH_ULPS = 2.0 ** -51
-#: how a step's end moves with its size (:func:`_end_state`): 0 as the ODE's
-#: rates at the end (RK4, the pairs), 1 Euler's, 2 the semi-implicit Euler's
-STEP_SLOPE = 0
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 # the pair's PI gains (control.PI_DOPRI5, PI_DOP853) and the exponent of a
 # rejected step's shrink factor (1 / order)
@@ -155,80 +151,33 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
     return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough
 
 
-def _end_state(h, step, u, q, d, g, b, c, frame, start_rate):
-    """The end of the step of size ``h`` from (p, u) (``step``: _try_step's
-    tuple) as :func:`_event_guess` takes it: ``(p1, u1, nu1, sin phi1,
-    kappa1, dp/ds1, dp1/dh, du1/dh)``, the last two how the step's end moves
-    with its size: the ODE's rates at the end for RK4 and the pairs (to
-    their order), the start's (``frame``, ``start_rate`` = du/dt there) for
-    Euler's step, which is linear in h, and the semi-implicit one's."""
-    p1, u1, nu1, frame1 = step[0], step[1], step[7], step[9]
-    if STEP_SLOPE == 1:  # Euler: p + h u dp/ds, u + h a at the start
-        dp_dh = u * frame[3]
-        du_dh = start_rate
-    elif STEP_SLOPE == 2:  # semi-implicit Euler: p + h (u + h a) dp/ds
-        dp_dh = fma(2.0 * h, start_rate, u) * frame[3]
-        du_dh = start_rate
-    else:
-        dp_dh = u1 * frame1[3]
-        du_dh = stage_from(frame1, u1, q, d, g, b, c)[0]
-    return p1, u1, nu1, frame1[0], frame1[2], frame1[3], dp_dh, du_dh
-
-
-@jit
-def hermite_root(value0, slope0, value1, slope1):
-    """A root in [0, 1] of the cubic through ``value0`` (> 0) and ``value1``
-    (<= 0) at 0 and 1 with those slopes (per unit of the interval): Newton
-    steps from the secant's root; the secant's root where they leave the
-    interval or the data are not finite (a guess: the trial steps decide)."""
-    secant = value0 / (value0 - value1)
-    theta = secant
-    for _ in range(6):  # quadratic convergence from the secant's root
-        t2 = theta * theta
-        t3 = t2 * theta
-        cubic = ((2.0 * t3 - 3.0 * t2 + 1.0) * value0 + (t3 - 2.0 * t2 + theta) * slope0
-                 + (3.0 * t2 - 2.0 * t3) * value1 + (t3 - t2) * slope1)
-        slope = ((6.0 * t2 - 6.0 * theta) * (value0 - value1)
-                 + (3.0 * t2 - 4.0 * theta + 1.0) * slope0 + (3.0 * t2 - 2.0 * theta) * slope1)
-        theta = theta - cubic / slope
-    return theta if 0.0 <= theta <= 1.0 else secant
-
-
-def _event_guess(lo, hi, end_lo, end_hi, p, d, sn, g, p_lo, p_hi, joint):
+def _event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight_hi, p, d, sn,
+                 p_lo, p_hi, joint):
     """Where the first event condition that fails at step size ``hi`` (and
-    holds at ``lo``) crosses 0 (``end_lo``, ``end_hi``: those steps' ends,
-    :func:`_end_state`): the root of the cubic through each condition's
-    values and slopes in h at the two, the earliest such crossing, or inf
-    where none says (a non-finite step, a condition this does not model).
-    The normal force's slope takes the curvature's change in h as its
-    secant over [lo, hi] (the frame has no dkappa/ds)."""
+    holds at ``lo``) crosses 0, by the secant through its values at the two
+    (``lo_*``, ``hi_*``: p, u and nu at the ends of those steps; each end's
+    value times its ``weight``, the Illinois method's): the earliest such
+    crossing, or inf where no condition's secant says (a non-finite step,
+    a condition this does not model)."""
     best = math.inf
     span = hi - lo
-    p0, u0, nu0, sin0, kappa0, dp_ds0, dp_dh0, du_dh0 = end_lo
-    p1, u1, nu1, sin1, kappa1, dp_ds1, dp_dh1, du_dh1 = end_hi
-    kappa_dh = (kappa1 - kappa0) / span
-    # dnu/dh = dkappa/dh u^2 + 2 kappa u du/dh - g sin phi kappa ds/dh
-    nu_dh0 = kappa_dh * (u0 * u0) + kappa0 * (2.0 * u0 * du_dh0 - g * sin0 * (dp_dh0 / dp_ds0))
-    nu_dh1 = kappa_dh * (u1 * u1) + kappa1 * (2.0 * u1 * du_dh1 - g * sin1 * (dp_dh1 / dp_ds1))
-    # each condition's value (> 0 where it holds, as _try_step) and its
-    # slope in h at the two ends.  An end (or the joint) reached exactly
-    # holds, and p is rounded: the step's p passes p_hi where the exact one
-    # passes p_hi + half an ulp, so the guess aims there (at a p held on
-    # the end over many step sizes, the secant would have no slope)
+    # each condition's value: > 0 where it holds, as _try_step.  An end
+    # reached exactly holds, and p is rounded: the step's p passes p_hi where
+    # the exact one passes p_hi + half an ulp, so the guess aims there (on a
+    # p held on the end over many step sizes the secant has no slope, and
+    # bisection took ~50 trials)
     half_hi = abs(p_hi) * 2.0 ** -53
     half_lo = abs(p_lo) * 2.0 ** -53
-    half_joint = abs(joint) * 2.0 ** -53 * abs(p - joint)
-    for value_lo, slope_lo, value_hi, slope_hi, fails in (
-            (d * u0, d * du_dh0, d * u1, d * du_dh1, not (d * u1 > 0.0)),
-            (sn * nu0, sn * nu_dh0, sn * nu1, sn * nu_dh1, not (sn * nu1 > 0.0)),
-            (p_hi - p0 + half_hi, -dp_dh0, p_hi - p1 + half_hi, -dp_dh1, not (p1 <= p_hi)),
-            (p0 - p_lo + half_lo, dp_dh0, p1 - p_lo + half_lo, dp_dh1, not (p1 >= p_lo)),
-            ((p0 - joint) * (p - joint) + half_joint, dp_dh0 * (p - joint),
-             (p1 - joint) * (p - joint) + half_joint, dp_dh1 * (p - joint),
-             (p - joint) * (p1 - joint) < 0.0 if JOINTS else False)):
+    for value_lo, value_hi, fails in (
+            (d * lo_u, d * hi_u, not (d * hi_u > 0.0)),
+            (sn * lo_nu, sn * hi_nu, not (sn * hi_nu > 0.0)),
+            (p_hi - lo_p + half_hi, p_hi - hi_p + half_hi, not (hi_p <= p_hi)),
+            (lo_p - p_lo + half_lo, hi_p - p_lo + half_lo, not (hi_p >= p_lo)),
+            ((lo_p - joint) * (p - joint), (hi_p - joint) * (p - joint),
+             (p - joint) * (hi_p - joint) < 0.0 if JOINTS else False)):
         if fails and value_lo > 0.0:
-            guess = lo + span * hermite_root(value_lo, span * slope_lo, value_hi,
-                                             span * slope_hi)
+            a = weight_lo * value_lo
+            guess = lo + span * (a / (a - weight_hi * value_hi))
             if guess < best:
                 best = guess
     return best
@@ -241,21 +190,22 @@ def _locate_event(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi
     with lo < hi adjacent floats, lo's step clean (0 at first) and hi's
     not.  The same bracket as bisection gives where cleanness switches once
     over the step (a switch that flickers within rounding may come out an
-    ulp apart), found in fewer steps: each trial is the root of the cubic
-    through the failing condition's values and slopes in h at the
-    bracket's ends (:func:`_event_guess`: the step's own dense output, in
-    effect), pushed past the guess towards the end that did not move last
-    by the guess's last change, at least PUSH_ULPS of it, so
-    that the bracket closes from both sides; a plain bisection where the
-    guess is not strictly inside or the bracket has not halved over the
-    last two trials.  Every trial is a whole step of the scene's method, so
-    the bracket is exact whatever the method's error."""
+    ulp apart), found in fewer steps: each trial is the Illinois method's
+    secant guess on the failing condition (its values at the bracket's ends;
+    a side kept twice in a row has its value halved), pushed past the guess
+    towards the end that did not move last by the guess's last change, at
+    least PUSH_ULPS of it, so that the bracket closes from both sides (a
+    plain secant closes one side and then crawls: ~50 trials, bisection's
+    count, on a linear condition such as Euler's reversal); a plain
+    bisection where the guess is not strictly inside or the bracket has not
+    halved over the last two trials.  Every trial is a whole step of the
+    scene's method, so the bracket is exact whatever the method's error."""
     lo = 0.0
     hi = h
-    start_rate = stage_from(frame, u, q, d, g, b, c)[0]
-    end_lo = (p, u, normal_along_n(u, frame[1], frame[2], g), frame[0], frame[2], frame[3],
-              u * frame[3], start_rate)
-    end_hi = end_state(h, step_h, u, q, d, g, b, c, frame, start_rate)
+    lo_p, lo_u = p, u
+    lo_nu = normal_along_n(u, frame[1], frame[2], g)
+    hi_p, hi_u, hi_nu = step_h[0], step_h[1], step_h[7]
+    weight_lo = weight_hi = 1.0
     moved = 0.0  # +1.0: lo moved last, -1.0: hi did
     width_before = width_last = math.inf
     guess_before = math.nan
@@ -265,7 +215,8 @@ def _locate_event(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi
             break
         trial = mid
         if hi - lo <= 0.5 * width_before:
-            guess = event_guess(lo, hi, end_lo, end_hi, p, d, sn, g, p_lo, p_hi, joint)
+            guess = event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo,
+                                 weight_hi, p, d, sn, p_lo, p_hi, joint)
             if lo < guess < hi:
                 # past the guess by its last change (a few ulps at least),
                 # towards the end that stayed: the bracket closes from both sides
@@ -280,13 +231,15 @@ def _locate_event(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi
         step = try_step(p, u, q, d, sn, trial, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
                         joint, rtol, atol, frame)
         if step[8]:
-            lo = trial
-            end_lo = end_state(trial, step, u, q, d, g, b, c, frame, start_rate)
+            lo, lo_p, lo_u, lo_nu = trial, step[0], step[1], step[7]
+            weight_lo = 1.0
+            weight_hi = 0.5 * weight_hi if moved > 0.0 else 1.0
             moved = 1.0
         else:
-            hi = trial
-            end_hi = end_state(trial, step, u, q, d, g, b, c, frame, start_rate)
+            hi, hi_p, hi_u, hi_nu = trial, step[0], step[1], step[7]
             step_h = step
+            weight_hi = 1.0
+            weight_lo = 0.5 * weight_lo if moved < 0.0 else 1.0
             moved = -1.0
     return hi, step_h
 

@@ -415,13 +415,9 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     built_rates = build(_dop853_stages, "rates", stage=built_stage, stage_from=built_stage_from)
     constants["curve_step"] = build(step, "step", stage=built_stage, stage_rates=built_rates)
     constants["try_step"] = build(ck._try_step, "try")
-    # the event locator's slopes in h (curve_kernel._end_state)
-    constants["stage_from"] = built_stage_from
-    constants["STEP_SLOPE"] = {"euler": 1, "semi_implicit_euler": 2}.get(method, 0)
     for template, bound in ((ck._rest_rule, "rest_rule"), (ck._contact_sign, "contact_sign"),
                             (ck._x_travelled, "x_travelled"),
-                            (ck._end_state, "end_state"), (ck._event_guess, "event_guess"),
-                            (ck._locate_event, "locate_event"),
+                            (ck._event_guess, "event_guess"), (ck._locate_event, "locate_event"),
                             (ck._accepted_factor, "accepted_factor"),
                             (ck._rejected_factor, "rejected_factor"),
                             (_start_lane, "start_lane"), (ck._iterate, "iterate"),
