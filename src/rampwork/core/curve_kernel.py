@@ -166,12 +166,18 @@ def _event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight
     a condition this does not model)."""
     best = math.inf
     span = hi - lo
-    # each condition's value: > 0 (>= 0 for the ends) where it holds, as _try_step
+    # each condition's value: > 0 where it holds, as _try_step.  An end
+    # reached exactly holds, and p is rounded: the step's p passes p_hi where
+    # the exact one passes p_hi + half an ulp, so the guess aims there (on a
+    # p held on the end over many step sizes the secant has no slope, and
+    # bisection took ~50 trials)
+    half_hi = abs(p_hi) * 2.0 ** -53
+    half_lo = abs(p_lo) * 2.0 ** -53
     for value_lo, value_hi, fails in (
             (d * lo_u, d * hi_u, not (d * hi_u > 0.0)),
             (sn * lo_nu, sn * hi_nu, not (sn * hi_nu > 0.0)),
-            (p_hi - lo_p, p_hi - hi_p, not (hi_p <= p_hi)),
-            (lo_p - p_lo, hi_p - p_lo, not (hi_p >= p_lo)),
+            (p_hi - lo_p + half_hi, p_hi - hi_p + half_hi, not (hi_p <= p_hi)),
+            (lo_p - p_lo + half_lo, hi_p - p_lo + half_lo, not (hi_p >= p_lo)),
             ((lo_p - joint) * (p - joint), (hi_p - joint) * (p - joint),
              (p - joint) * (hi_p - joint) < 0.0 if JOINTS else False)):
         if fails and value_lo > 0.0:
