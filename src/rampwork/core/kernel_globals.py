@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from .layout import N_SUBSTEPS
 
-# bound per scene by build_kernel (compile-time constants)
+# bound per scene by kernel.build_kernel (compile-time constants)
 step = ramp_height = ramp_slope_curvature = None
 ONE_SIDED = True  # block on top of the ramp (lift-off) rather than a bead on a wire
 CHECK_CONTACT = True  # False where n > 0 is known in advance (f'' >= 0)
@@ -23,8 +23,8 @@ SUBSTEPS = N_SUBSTEPS  # (attempted) steps between scalar passes
 CHAINS = 2  # lane-loop halves run side by side (1: one after the other)
 UNROLL = 1  # fixed steps per lane visit, state held in registers
 PAPER_CRITERION = False  # record where the paper's eq. (26) would report lift-off
-FRICTION = True  # False: mu_k = 0 everywhere, no friction branch (see build_kernel)
-# Known in advance for some methods and ramps (see build_kernel):
+FRICTION = True  # False: mu_k = 0 everywhere, no friction branch (see kernel.build_kernel)
+# Known in advance for some methods and ramps (see kernel.build_kernel):
 WORK_SIGN_CHECK = True  # False: each step's friction work is >= 0 by construction
 CONSTANT_CURVATURE = False  # f'' is the same all along the ramp: no curvature integral
 LINEAR_EVENTS = False  # x and v are linear in the step size: events in closed form
@@ -36,14 +36,14 @@ DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag's terms (DRAG: either)
 STAGE_FROM_START = False
 ramp_slope_curvature_near = None
 # fixed steps: fields per history bank (x, v, W, then WD where the kernel
-# has it; no K: the curvature integral is formed per mode, _mode_curvature)
-# and where WD sits in a bank (see build_kernel)
+# has it; no K: the curvature integral is formed per mode, kernel_modes._mode_curvature)
+# and where WD sits in a bank (see kernel.build_kernel)
 N_HIST = 4
 HIST_WD = 3
 # fixed steps with a split step (RK4: steppers.FixedStepMethod.split): the
 # vector loop runs the step's first part for all lanes, then its last part,
 # the values between them in N_CARRY fields from CARRY (after the history
-# banks; see build_kernel)
+# banks; see kernel.build_kernel)
 SPLIT_STEP = False
 CARRY = 0
 N_CARRY = 8
