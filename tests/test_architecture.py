@@ -15,7 +15,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "src" / "rampwork"
 #: floor of each top-level module (core/* is floor 0)
 FLOORS = {
     "_version": 0, "errors": 0, "validate": 0, "core": 0,
-    "userfunctions": 1, "ramps": 1, "curves": 1, "curve_families": 1, "schema": 1, "designs": 1, "brachistochrone": 1,
+    "userfunctions": 1, "ramps": 1, "ramp_family": 1, "ramp_families": 1, "curves": 1, "curve_families": 1, "schema": 1, "designs": 1, "brachistochrone": 1,
     "scene": 2, "io": 2, "chunkstore": 2, "zarrstore": 2, "reference": 2, "plotting": 2,
     "scenefile": 3, "curve_scene": 3, "plan": 4, "kernels": 4, "runner": 4, "terminal": 4,
     "descent_shapes": 4,  # shape families for optimisation: run populations in curve scenes

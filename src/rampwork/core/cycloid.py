@@ -202,7 +202,7 @@ def cycloid_slope_curvature_afresh(x, dx, fp, fpp, p0, p1, p2, p3, shared):
 
 #: the short form's bound on (CYCLOID_GROWTH_0 + CYCLOID_GROWTH_1 |f'(x0)|) tau,
 #: tau = (1 + f'(x0)^2) |dx| / (4 r), for every stage and step end of a run
-#: (``rampwork.ramps``'s cycloid ``short_stages``)
+#: (``rampwork.ramp_families``' cycloid ``short_stages``)
 CYCLOID_SHORT_BOUND = 1.0 / 64.0
 #: the series' coefficients grow by at most this factor per order
 #: (~1.27 at f' = 0, the pole at the cusp; ~2.65 |f'| + 0.7 for |f'| >= 1)

@@ -124,7 +124,7 @@ def circular_dome_slope_curvature(x, p0, p1, p2, p3, shared):
 # p0 = mean_slope (dy/dx), p1 = amplitude, p2 = wavenumber, p3 = phase
 # sin and cos from vmath (no libm call: the lane loops vectorise), accurate to
 # 1 ulp for |wavenumber*x + phase| <= vmath.VALID_ARGUMENT, which the family's
-# validation guarantees on the domain (rampwork.ramps._Sine)
+# validation guarantees on the domain (rampwork.ramp_families._Sine)
 
 
 @jit
@@ -166,7 +166,7 @@ def sine_slope_curvature_near(x, dx, fp, fpp, p0, p1, p2, p3, shared):
 
 #: |k dx| up to which ``sine_slope_curvature_short`` holds its accuracy; the
 #: plan selects it where every step's |k dx| is bounded by it
-#: (``rampwork.ramps``'s sine family, ``short_stages``)
+#: (``rampwork.ramp_families``' sine family, ``short_stages``)
 SHORT_STAGE_ANGLE = 0.0625
 # Taylor coefficients: sin(y)/y = 1 + z (_SC1 + z (_SC2 + z _SC3)) and
 # cos(y) - 1 = z (-1/2 + z (_CC2 + z (_CC3 + z _CC4))), z = y^2
