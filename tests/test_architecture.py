@@ -92,3 +92,39 @@ def test_jit_options_set_in_one_place():
         text = path.read_text()
         for forbidden in ("numba.njit(", "@njit", "numba.jit(", "@numba.njit", "@numba.jit"):
             assert forbidden not in text, f"{path.relative_to(PACKAGE)} uses {forbidden}; use core.jit"
+
+
+#: the most lines a module may have ("no module much over 400 lines")
+MAX_MODULE_LINES = 450
+#: modules over it, each for a named reason (none may grow past its bound):
+#: split them when they are next worked on
+LONG_MODULES = {
+    # edited by other work at the time of the split (2026-11-25): left whole
+    "scenefile.py": 900, "runner.py": 550, "curve_families.py": 500,
+    "core/curve_kernel.py": 520,
+    # one subject each, not yet split: the schema's registry of variables,
+    # the command's parser and commands, the independent scipy reference,
+    # Dormand-Prince 8(5,3)'s tableau with its stages and dense output, and
+    # the adaptive lane kernel's templates (bound like kernel.py's)
+    "schema.py": 650, "cli.py": 600, "reference.py": 560, "core/dop853.py": 580,
+    "core/adaptive.py": 590,
+}
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_module_length(path):
+    """Modules are split by what they hold before they grow long."""
+    name = str(path.relative_to(PACKAGE))
+    lines = len(path.read_text().splitlines())
+    bound = LONG_MODULES.get(name, MAX_MODULE_LINES)
+    assert lines <= bound, (f"{name} has {lines} lines (at most {bound}): split it by what "
+                            "it holds")
+
+
+def test_long_module_exceptions_are_current():
+    """Each exception names a module that still needs it."""
+    for name in LONG_MODULES:
+        path = PACKAGE / name
+        assert path.exists(), f"{name} is listed in LONG_MODULES but does not exist"
+        assert len(path.read_text().splitlines()) > MAX_MODULE_LINES, (
+            f"{name} is within {MAX_MODULE_LINES} lines now: remove it from LONG_MODULES")
