@@ -15,10 +15,11 @@ PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "src" / "rampwork"
 #: floor of each top-level module (core/* is floor 0)
 FLOORS = {
     "_version": 0, "errors": 0, "validate": 0, "core": 0,
-    "userfunctions": 1, "ramps": 1, "curves": 1, "curve_families": 1, "curve_tracks": 1,
-    "spline_coordinates": 1, "schema": 1, "designs": 1, "brachistochrone": 1,
+    "userfunctions": 1, "ramps": 1, "ramp_family": 1, "ramp_families": 1, "curves": 1,
+    "curve_families": 1, "curve_kernels": 1, "curve_tracks": 1, "spline_coordinates": 1, "schema": 1, "designs": 1,
+    "brachistochrone": 1,
     "scene": 2, "io": 2, "chunkstore": 2, "zarrstore": 2, "reference": 2, "plotting": 2,
-    "scenefile": 3, "curve_scene": 3, "plan": 4, "kernels": 4, "runner": 4, "terminal": 4,
+    "scenefile": 3, "curve_scene": 3, "curve_scenefile": 3, "plan": 4, "kernels": 4, "runner": 4, "terminal": 4,
     "descent_shapes": 4,  # shape families for optimisation: run populations in curve scenes
     "warmup": 5, "streaming": 5, "ishigami": 0, "sensitivity": 5, "cluster": 5,
     "shapes": 5, "optimiser": 5, "sweepruns": 5, "curve_chunks": 5,
@@ -93,3 +94,39 @@ def test_jit_options_set_in_one_place():
         text = path.read_text()
         for forbidden in ("numba.njit(", "@njit", "numba.jit(", "@numba.njit", "@numba.jit"):
             assert forbidden not in text, f"{path.relative_to(PACKAGE)} uses {forbidden}; use core.jit"
+
+
+#: the most lines a module may have ("no module much over 400 lines")
+MAX_MODULE_LINES = 450
+#: modules over it, each for a named reason (none may grow past its bound):
+#: split them when they are next worked on
+LONG_MODULES = {
+    # edited by other work at the time of the split (2026-11-25): left whole
+    "scenefile.py": 900, "runner.py": 550, "curve_families.py": 500,
+    "core/curve_kernel.py": 520,
+    # one subject each, not yet split: the schema's registry of variables,
+    # the command's parser and commands, the independent scipy reference,
+    # Dormand-Prince 8(5,3)'s tableau with its stages and dense output, and
+    # the adaptive lane kernel's templates (bound like kernel.py's)
+    "schema.py": 650, "cli.py": 600, "reference.py": 560, "core/dop853.py": 580,
+    "core/adaptive.py": 590,
+}
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_module_length(path):
+    """Modules are split by what they hold before they grow long."""
+    name = str(path.relative_to(PACKAGE))
+    lines = len(path.read_text().splitlines())
+    bound = LONG_MODULES.get(name, MAX_MODULE_LINES)
+    assert lines <= bound, (f"{name} has {lines} lines (at most {bound}): split it by what "
+                            "it holds")
+
+
+def test_long_module_exceptions_are_current():
+    """Each exception names a module that still needs it."""
+    for name in LONG_MODULES:
+        path = PACKAGE / name
+        assert path.exists(), f"{name} is listed in LONG_MODULES but does not exist"
+        assert len(path.read_text().splitlines()) > MAX_MODULE_LINES, (
+            f"{name} is within {MAX_MODULE_LINES} lines now: remove it from LONG_MODULES")

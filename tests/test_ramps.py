@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from rampwork import ramps
+from rampwork.core import cycloid
 from rampwork.core import ramps as core
 from rampwork.core.jit import specialise
 from rampwork.errors import ConfigError
@@ -191,7 +192,7 @@ def test_cycloid_inverse_to_an_ulp(r):
         if not abs(x) < math.pi * r or core.cycloid_cusp_gap(abs(x), r) <= 0:
             continue
         u, w = _cycloid_reference(x, r)
-        sin_half, cos_half = core._cycloid_half_angle(x, r)
+        sin_half, cos_half = cycloid._cycloid_half_angle(x, r)
         if abs(x) / r < core.CYCLOID_SPLIT:  # solved for z = |u|
             z_err = _ulps(2 * math.atan2(sin_half, cos_half), u)
         else:  # solved for z = pi - |u|

@@ -387,7 +387,8 @@ def scene_from_dict(data: Mapping, source: str = "<dict>",
             raise ConfigError("", f"expected a table of settings, got {_type_name(data)}")
         data = dict(data)
         if "curve" in data:  # a planar curve instead of a ramp (docs/physics.md §5)
-            from .curve_scene import check_sweep, scene_from_data
+            from .curve_scene import check_sweep
+            from .curve_scenefile import scene_from_data
 
             if "ramp" in data:
                 raise ConfigError("curve", "a scene has exactly one of [ramp] (y = f(x)) and "
@@ -766,7 +767,8 @@ def dump_scene(scene: Scene, sweep: Sweep | None = None, *, stored: bool = False
     ``stored``: the text stored with the dataset of the run: an axis of more
     than :data:`INLINE_VALUES` explicit values refers to the dataset's
     coordinate instead of listing them (read back by :func:`scene_from_dataset`)."""
-    from .curve_scene import CurveScene, dump_curve_lines
+    from .curve_scene import CurveScene
+    from .curve_scenefile import dump_curve_lines
 
     if not isinstance(scene, (Scene, CurveScene)):
         raise ConfigError("scene", f"expected a rampwork.Scene, got {_type_name(scene)}")

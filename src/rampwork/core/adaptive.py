@@ -1,9 +1,9 @@
 """The adaptive lane kernel's own parts: per-lane step sizes with error control.
 
-The frame is the fixed-step kernel's (``kernel.py``: lanes, scans, loading,
-finishing, event application); :func:`kernel.build_kernel` binds these
-templates in place of the fixed-step ones for an embedded pair such as
-Dormand-Prince 5(4).
+The frame is the fixed-step kernel's (``kernel_tiles.py``: lanes, scans;
+``kernel_modes.py``: loading, finishing; ``kernel_events.py``: event
+application); :func:`kernel.build_kernel` binds these templates in place of
+the fixed-step ones for an embedded pair such as Dormand-Prince 5(4).
 
 In the vector loop every lane attempts one step of its own size ``H`` per
 iteration and, without a branch, either commits it (error norm <= 1, no event
@@ -29,7 +29,7 @@ import numpy as np
 from . import status as st
 from .control import (ERROR_FLOOR, ERROR_TINY, FACTOR_MAX, PI_DOPRI5, log2_approx,
                       reciprocal_approx, step_factor)
-from .layout import *  # noqa: F403 - the lane layout shared with kernel.py
+from .layout import *  # noqa: F403 - the lane layout shared with the fixed-step kernel
 from .jit import fma
 from .physics import acceleration, drag_rate, normal_term, specific_energy
 
@@ -47,7 +47,7 @@ step = dense_output = ramp_slope_curvature = ramp_height = None
 PROJECT_ENERGY = True  # project accepted steps onto the energy balance
 CHECK_CONTACT = True
 ONE_SIDED = True
-DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel.py)
+DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False  # air drag (see kernel_globals.py)
 LANES = 64
 PI_ALPHA, PI_BETA = PI_DOPRI5  # the pair's controller gains
 SWING_LIMIT2 = 0.64  # the pair's bound on (h omega)^2 (steppers.AdaptivePair.swing_limit)

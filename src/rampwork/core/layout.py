@@ -1,5 +1,5 @@
 """Where things live in the lane kernels' flat arrays (shared by the
-fixed-step kernel in ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
+fixed-step kernel of ``kernel.py`` and the adaptive one in ``adaptive.py``)."""
 
 # --- lane state: one flat float64 array, field F of lane i at F * LANES + i ----
 # T, XM, SM: time, position and step count at the start of the current mode
@@ -50,9 +50,9 @@ N_FIELDS = 48
 # start): x, v and the integrals W, WD at fields HIST + N_HIST j + HIST_X
 # .. HIST_WD, where a kernel has WD (kernel.build_kernel sets N_HIST and its
 # place; no K: fixed steps form the curvature integral per mode).  Kernels
-# whose step runs in two lane loops (RK4: kernel.SPLIT_STEP) have, after the
-# banks, kernel.N_CARRY fields for the values passed from the first loop to
-# the second.
+# whose step runs in two lane loops (RK4: kernel_globals.SPLIT_STEP) have,
+# after the banks, kernel_globals.N_CARRY fields for the values passed from
+# the first loop to the second.
 HIST = N_FIELDS
 HIST_X, HIST_V, HIST_W = range(3)
 N_BANKED = 13

@@ -37,7 +37,7 @@ ramp_slope_curvature = None  # bound per scene by jit.specialise
 # start x0 (cheaper than evaluating them afresh: the sine's angle sum):
 # ``ramp_slope_curvature_near(x, dx, fp0, fpp0, p0, p1, p2, p3, shared)``,
 # x = x0 + dx rounded.  RK4 uses it where STAGE_FROM_START (bound per scene), and
-# every fixed-step kernel for its steps' ends (kernel._step_and_check).
+# every fixed-step kernel for its steps' ends (kernel_vector._step_and_check).
 STAGE_FROM_START = False
 ramp_slope_curvature_near = None
 # RK4's two parts, bound per scene (build_kernel specialises the templates
@@ -78,7 +78,7 @@ def semi_implicit_euler_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shar
 def rk4_step(x, v, fp, fpp, q, qh, d, h, g, p0, p1, p2, p3, shared, b, c):
     """Classical fourth-order Runge-Kutta on (x, v) and the integrals: its
     first two stages, then its last two and the sums (two parts so that the
-    vector loop can run them in two lane loops, kernel.SPLIT_STEP; called
+    vector loop can run them in two lane loops, kernel_globals.SPLIT_STEP; called
     together here, the arithmetic is the same)."""
     a1, v2, a2, n1v, n2v2, fpp2v2, pd1, pd2 = rk4_first_stages(
         x, v, fp, fpp, q, d, h, g, p0, p1, p2, p3, shared, b, c)
@@ -173,7 +173,7 @@ class FixedStepMethod(NamedTuple):
     drag included: its rate is the step start's): events are located in
     closed form.  ``split``: the step in two parts, ``(first, last)``
     (templates), with ``step`` = last(first): the vector loop runs them in
-    two lane loops (kernel.SPLIT_STEP)."""
+    two lane loops (kernel_globals.SPLIT_STEP)."""
     step: Callable
     order: int
     first_order: bool = False

@@ -48,7 +48,7 @@ cbrt
     relative error ~1 ulp for positive normal arguments; cbrt(0) = 0; NaN and
     negative arguments are returned unchanged (only a >= 0 is needed).
 
-inverse_cbrt, sin_small, cos_small (the cycloid family's helpers, core.ramps)
+inverse_cbrt, sin_small, cos_small (the cycloid family's helpers, core.cycloid)
     inverse_cbrt: a ** (-1/3) without a division (the bit trick, then two
     fourth-order steps): measured <= 1.8 ulp.  sin_small, cos_small: the
     fdlibm kernels alone, for |x| <= pi/4 (no reduction): measured <= 0.66
