@@ -39,10 +39,10 @@ from .core.steppers import ADAPTIVE_STEPPERS, STEPPERS
 from .core.variant import ANY_FAMILY, ANY_FIXED_STEP, KernelVariant
 from .plan import RunPlan
 from .ramps import FAMILIES
-from .validate import KERNEL_ENV, KERNEL_TIERS, kernel_tier
+from .validate import KERNEL_ENV, KERNEL_TIERS, kernel_tier  # noqa: F401 (KERNEL_ENV: public)
 
-#: the kernel tiers a run may ask for, and the environment variable of the default
-TIERS, KERNEL_ENV = KERNEL_TIERS, KERNEL_ENV
+#: the kernel tiers a run may ask for (their one home: rampwork.validate, with KERNEL_ENV)
+TIERS = KERNEL_TIERS
 #: the environment variable that turns the background compilation of the
 #: general kernels off ("0")
 WARMUP_ENV = "RAMPWORK_WARMUP"
