@@ -31,10 +31,18 @@ TOL["dop853"] = 10 * RTOL["dop853"]
 CLOSED_FORM_METHODS = METHODS + ("dop853",)
 
 
+def every(*methods):
+    """``methods`` as parameters, semi-implicit Euler in the slow suite: its
+    kernels cost compile time, and explicit Euler keeps the first-order
+    path in the default one."""
+    return [pytest.param(method, marks=pytest.mark.slow) if method == "semi_implicit_euler"
+            else method for method in methods]
+
+
 # ------------------------------------------------------------------------------
 # the frictionless loop: contact over the top iff u_bottom^2 >= 5 g R
 # ------------------------------------------------------------------------------
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", every(*METHODS))
 @pytest.mark.parametrize("radius", [0.5, 2.0])
 def test_loop_clears_the_top_iff_five_g_r(method, radius):
     loop = Curve.create("loop", radius=radius)
@@ -50,7 +58,7 @@ def test_loop_clears_the_top_iff_five_g_r(method, radius):
     assert out["p_end"][1] == 2 * math.pi * radius
 
 
-@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
+@pytest.mark.parametrize("method", every(*CLOSED_FORM_METHODS))
 @pytest.mark.parametrize("ratio", [2.5, 3.0, 4.0, 4.9])
 def test_loop_lift_off_angle_by_energy(method, ratio):
     """Too slow (2 g R < u^2 < 5 g R): it leaves where nu = 0, cos theta =
@@ -70,7 +78,7 @@ def test_loop_lift_off_angle_by_energy(method, ratio):
     assert out["n_reversals"] == 0
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", every(*METHODS))
 def test_loop_below_the_equator_swings_without_leaving(method):
     """u^2 < 2 g R: it reverses below the equator, at cos theta = 1 - u^2 / (2 g R),
     and comes back to the bottom (the arc's entry) with its speed."""
@@ -84,19 +92,23 @@ def test_loop_below_the_equator_swings_without_leaving(method):
     assert out["nu_min"] > 0
 
 
-@pytest.mark.parametrize("method", METHODS + ("dopri5", "dop853"))
-def test_loop_at_exactly_five_g_r_touches_zero_and_goes_over(method):
+@pytest.mark.parametrize("method, contact", [
+    *((method, "one_sided") for method in ("euler", "rk4", "dopri5", "dop853")),
+    ("rk4", "two_sided"), ("dopri5", "two_sided"),  # the others' kernels: slow suite
+    pytest.param("semi_implicit_euler", "one_sided", marks=pytest.mark.slow),
+    *(pytest.param(method, "two_sided", marks=pytest.mark.slow)
+      for method in ("euler", "semi_implicit_euler", "dop853"))])
+def test_loop_at_exactly_five_g_r_touches_zero_and_goes_over(method, contact):
     """u_bottom^2 = 5 g R: nu = 3 g (1 + cos theta) touches 0 at the top
     without changing sign; the block goes over, for both contacts."""
     loop = Curve.create("loop", radius=1.0)
-    for contact in ("one_sided", "two_sided"):
-        out = simulate_curve(loop, s0=0.0, u0=math.sqrt(5 * G), method=method,
-                             dt=STEP.get(method, 1e-3), contact=contact,
-                             rtol=RTOL.get(method, 1e-6))
-        assert out["status_name"][()] == "exited" and out["n_reversals"] == 0
-        # nu_min is sampled at the steps' ends: dop853's steps at rtol 1e-6 (0.07 s
-        # near the top) pass it at nu ~ 0.2, hence its tighter rtol here
-        assert 0.0 <= out["nu_min"] < 0.1
+    out = simulate_curve(loop, s0=0.0, u0=math.sqrt(5 * G), method=method,
+                         dt=STEP.get(method, 1e-3), contact=contact,
+                         rtol=RTOL.get(method, 1e-6))
+    assert out["status_name"][()] == "exited" and out["n_reversals"] == 0
+    # nu_min is sampled at the steps' ends: dop853's steps at rtol 1e-6 (0.07 s
+    # near the top) pass it at nu ~ 0.2, hence its tighter rtol here
+    assert 0.0 <= out["nu_min"] < 0.1
 
 
 # ------------------------------------------------------------------------------
@@ -116,7 +128,7 @@ def _dome_fall(method, dt):
     return out, radius * (math.pi + math.acos(2 / 3 * cos_r))
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", every(*METHODS))
 def test_dome_reversal_then_fall_orders(method):
     steps = (4e-3, 2e-3, 1e-3) if method != "rk4" else (4e-2, 2e-2, 1e-2)
     errors = []
@@ -176,7 +188,7 @@ def _arc_speed_squared(phi, phi0, w0, mu, radius):
     return math.exp(-a * (phi - phi0)) * (w0 - 2 * G * radius * (primitive(phi) - primitive(phi0)))
 
 
-@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
+@pytest.mark.parametrize("method", every(*CLOSED_FORM_METHODS))
 @pytest.mark.parametrize("mu", [0.1, 0.4])
 def test_circular_arc_with_friction_exit_speed(method, mu):
     radius = 0.8
@@ -193,7 +205,7 @@ def test_circular_arc_with_friction_exit_speed(method, mu):
     assert out["curvature_mean"] == pytest.approx(1 / radius, rel=10 * TOL[method])
 
 
-@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
+@pytest.mark.parametrize("method", every(*CLOSED_FORM_METHODS))
 def test_circular_arc_with_friction_stops_where_u_vanishes(method):
     """A stop where static friction holds it (tan theta <= mu_s): stuck at
     the angle where the exact u^2 reaches 0."""
@@ -214,7 +226,7 @@ def test_circular_arc_with_friction_stops_where_u_vanishes(method):
 # ------------------------------------------------------------------------------
 # the brachistochrone cycloid from its cusp: at rest on a vertical tangent
 # ------------------------------------------------------------------------------
-@pytest.mark.parametrize("method", CLOSED_FORM_METHODS)
+@pytest.mark.parametrize("method", every(*CLOSED_FORM_METHODS))
 @pytest.mark.parametrize("radius", [0.25, 1.0])
 def test_cycloid_from_the_cusp_reaches_the_bottom_in_pi_sqrt_r_over_g(method, radius):
     """At rest at the cusp nu = 0 exactly and kappa > 0: it slides off in
@@ -230,7 +242,7 @@ def test_cycloid_from_the_cusp_reaches_the_bottom_in_pi_sqrt_r_over_g(method, ra
     assert out["Y_end"] == pytest.approx(-2 * radius) and out["X_end"] == pytest.approx(math.pi * radius)
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", every(*METHODS))
 def test_cusp_on_the_other_side_leaves_at_once(method):
     """At rest on a vertical tangent bending away from the block (side right:
     kappa side < 0), nothing holds it: lift-off at t = 0."""
@@ -240,7 +252,7 @@ def test_cusp_on_the_other_side_leaves_at_once(method):
     assert out["t_end"] == 0.0 and out["p_lift_off"] == 0.0 and out["steps"] == 0
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", every(*METHODS))
 def test_quarter_pipe_top_is_vertical_and_the_block_comes_back(method):
     """Up a quarter pipe to its vertical end: too slow to reach it, it
     reverses on the curve and slides back out over the flat."""
@@ -258,7 +270,7 @@ def test_quarter_pipe_top_is_vertical_and_the_block_comes_back(method):
     assert out["Y_end"][1] == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("method", METHODS + ("dopri5", "dop853"))
+@pytest.mark.parametrize("method", every(*METHODS, "dopri5", "dop853"))
 def test_quarter_pipe_with_friction_steps_end_at_the_joint(method):
     """Over the flat u^2 falls by 2 mu g L, then the circular arc's exact
     solution up to the vertical end.  The curvature jump at the joint is an
@@ -351,7 +363,7 @@ WRAPPED_METHOD_FAMILIES = [WRAPPED[1]] + [pytest.param(r, marks=pytest.mark.slow
                                           for r in (WRAPPED[3], WRAPPED[5])]
 
 
-@pytest.mark.parametrize("method", ["euler", "semi_implicit_euler"])
+@pytest.mark.parametrize("method", every("euler", "semi_implicit_euler"))
 @pytest.mark.parametrize("ramp", WRAPPED_METHOD_FAMILIES, ids=lambda r: r.family)
 def test_wrapped_ramps_agree_with_the_ramp_kernel_first_order(ramp, method):
     _compare_wrapped(ramp, method, seed=11)

@@ -119,7 +119,7 @@ def test_with_friction_every_piece_follows_its_closed_form(method, settings, tol
 
 @pytest.mark.parametrize("method, dts, order", [
     ("euler", (4e-4, 2e-4, 1e-4), 1.0),
-    ("semi_implicit_euler", (4e-4, 2e-4, 1e-4), 1.0),
+    pytest.param("semi_implicit_euler", (4e-4, 2e-4, 1e-4), 1.0, marks=pytest.mark.slow),
     ("rk4", (2e-2, 1e-2, 5e-3), 4.0),
 ])
 def test_the_joints_keep_the_methods_order(method, dts, order):

@@ -247,7 +247,9 @@ def run_kernel(plan, **flags):
     return out
 
 
-@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5"])
+# (each case builds two kernels: RK4 in the default run, the others slow)
+@pytest.mark.parametrize("method", [pytest.param("euler", marks=pytest.mark.slow), "rk4",
+                                    pytest.param("dopri5", marks=pytest.mark.slow)])
 def test_no_lift_off_check_on_convex_ramps_changes_nothing(method):
     """f'' >= 0: the runner leaves the contact check out; the kernel with the
     check gives bit-identical results."""
@@ -295,7 +297,7 @@ def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
             assert LIFTED_OFF in statuses
 
 
-@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5",
+@pytest.mark.parametrize("method", [pytest.param("euler", marks=pytest.mark.slow), "rk4", "dopri5",
                                     pytest.param("dop853", marks=pytest.mark.slow)])
 def test_uniform_parameters_in_registers_change_nothing(method):
     """g and the ramp's shape not swept: the lane loops take them from the
@@ -315,7 +317,7 @@ def test_uniform_parameters_in_registers_change_nothing(method):
     assert {STUCK, EXITED, LIFTED_OFF} <= set(results[0][K.OUT_STATUS].astype(int))
 
 
-@pytest.mark.parametrize("method", ["euler", "rk4", "dopri5",
+@pytest.mark.parametrize("method", ["euler", pytest.param("rk4", marks=pytest.mark.slow), "dopri5",
                                     pytest.param("dop853", marks=pytest.mark.slow)])
 def test_constant_curvature_needs_no_curvature_integral(method):
     """A quadratic ramp's f'' is one number: the kernel built for that

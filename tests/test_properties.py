@@ -262,7 +262,7 @@ def test_bit_identical_whatever_chunks_and_threads(method, family, data):
         _assert_identical(whole, batch_run(family, batch, integrator, threads=1)[2], "1 thread")
 
 
-@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+@pytest.mark.parametrize("method", [pytest.param("rk4", marks=pytest.mark.slow), "dopri5"])
 @PROPERTY_SETTINGS
 @given(batch=batch_strategy("circular_bowl"))
 def test_bit_identical_whatever_the_lanes_per_block(method, batch):

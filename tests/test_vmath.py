@@ -148,13 +148,19 @@ def test_beyond_the_valid_range(magnitude):
     assert ulp_distance(c, np.cos(x)).max() <= BOUND
 
 
+@pytest.mark.skipif(np.finfo(np.longdouble).nmant < 63, reason="needs an 80-bit long double")
 def test_cbrt():
+    """Within 1 ulp of cbrt in long double.  (Not against numpy's double
+    cbrt: it is not correctly rounded, and on a CPU without AVX-512 it is
+    2.3 ulp off at worst, measured on these arguments.)"""
     rng = np.random.default_rng(5)
     x = np.concatenate([10.0 ** rng.uniform(-300, 300, 300_000), rng.uniform(0, 20, 100_000),
                         np.array([1.0, 8.0, 27.0, 1e-16, 2.2250738585072014e-308])])
     out = np.empty_like(x)
     _cbrt_loop(x, out)
-    assert ulp_distance(out, np.cbrt(x)).max() <= 1
+    error = ulp_error(out, np.cbrt(x.astype(np.longdouble)))
+    assert error.max() <= 1.0, error.max()
+    assert np.median(error) <= 0.5
     zero = np.array([0.0, np.nan])
     _cbrt_loop(zero, out[:2])
     assert out[0] == 0.0 and np.isnan(out[1])
