@@ -18,6 +18,7 @@ were there".  Compile times are taken apart (first call, fresh cache).
 
     PYTHONPATH=src python benchmarks/joints.py [--n 4000] [--methods rk4,dopri5]
         [--repeat 3] [--rounds 3] [--baseline /tmp/cfeat8-base/src]
+        [--cases loop,track:loop,loop_track,track:loop_track]
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ def worker(args) -> dict:
     # speeds that clear the loop (exits) and that do not (lift-offs, reversals)
     u0 = np.linspace(3.0, 8.0, args.n)
     for method in args.methods.split(","):
-        for case in CASES:
+        for case in args.cases.split(","):
             curve, s0 = _curve(case)
             if curve is None:
                 continue
@@ -91,7 +92,7 @@ def worker(args) -> dict:
 def _run_worker(src, args, cache) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src), NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS="1")
     command = [sys.executable, __file__, "--worker", "--n", str(args.n), "--methods",
-               args.methods, "--repeat", str(args.repeat)]
+               args.methods, "--repeat", str(args.repeat), "--cases", args.cases]
     done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
     return json.loads(done.stdout.splitlines()[-1])
 
@@ -103,6 +104,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--baseline", default=None, help="another tree's src folder")
+    parser.add_argument("--cases", default=",".join(CASES), help="a subset of " + ", ".join(CASES))
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:

@@ -20,7 +20,10 @@ from .errors import ConfigError
 
 #: where the population's joints are, per trajectory: the offset of row r's
 #: s_1 in ``shared`` is TRACK_HEADER + r * block + 2 (core/curve_track.py)
-TRACK_HEADER = 2
+TRACK_HEADER = curve_track.TRACK_HEADER
+#: the most cells of the piece table per track (core/curve_track.py): the
+#: shortest inner piece is at least 3 / MAX_CELLS of the longest track
+MAX_CELLS = 1 << 16
 
 
 def _pieces_rows(pieces) -> list[np.ndarray]:
@@ -60,7 +63,8 @@ def check_joints(joints, p_lo: float, p_hi: float, where: str = "curve.joints") 
 
 
 def track_row(pieces: np.ndarray, start) -> np.ndarray:
-    """One track's block of ``shared`` (layout: core/curve_track.py)."""
+    """One track's block of ``shared`` without its cells (layout:
+    core/curve_track.py; :func:`track_population` adds them)."""
     for column, name in ((0, "length"), (1, "curvature_start"), (2, "curvature_end")):
         if not np.isfinite(pieces[:, column]).all():
             raise ConfigError("curve.pieces", f"each piece's {name} must be finite")
@@ -74,14 +78,49 @@ def track_row(pieces: np.ndarray, start) -> np.ndarray:
     s = np.concatenate([[0.0], np.cumsum(lengths)])
     check_joints(s[1:-1], 0.0, s[-1], "curve.pieces")
     phi = np.empty(n)
-    x = np.empty(n)
-    y = np.empty(n)
-    x[0], y[0], phi[0] = start
-    for k in range(1, n):  # each piece starts where the last one ends
-        dx, dy = curve_track.piece_offset(lengths[k - 1], phi[k - 1], k0[k - 1], c[k - 1])
-        x[k], y[k] = x[k - 1] + dx, y[k - 1] + dy
-        phi[k] = phi[k - 1] + lengths[k - 1] * (k0[k - 1] + 0.5 * c[k - 1] * lengths[k - 1])
-    return np.concatenate([[n], s, phi, k0, c, x, y])
+    x, y, phi[0] = start
+    # panels: the tangent turns by at most PANEL_TURN over each (a straight: one)
+    turn = lengths * (np.maximum(np.abs(k0), np.abs(k1)) + 0.5 * np.abs(c) * lengths)
+    count = np.maximum(1.0, np.ceil(turn / curve_track.PANEL_TURN))
+    width = lengths / count
+    panels = []
+    for k in range(n):  # each piece starts where the last one ends
+        corners = np.arange(count[k]) * width[k]
+        offsets = np.array([curve_track.piece_offset(corner, phi[k], k0[k], c[k])
+                            for corner in corners]).reshape(-1, 2)
+        angles = phi[k] + corners * (k0[k] + 0.5 * c[k] * corners)
+        panels.append(np.stack([x + offsets[:, 0], y + offsets[:, 1], np.cos(angles),
+                                np.sin(angles)], axis=1).ravel())
+        dx, dy = curve_track.piece_offset(lengths[k], phi[k], k0[k], c[k])
+        x, y = x + dx, y + dy
+        if k + 1 < n:
+            phi[k + 1] = phi[k] + lengths[k] * (k0[k] + 0.5 * c[k] * lengths[k])
+    first = np.concatenate([[0.0], np.cumsum(count[:-1])]) * curve_track.PANEL_FIELDS
+    return np.concatenate([[n], s, phi, k0, c, first, count, width, count / lengths,
+                           np.concatenate(panels)])
+
+
+def _cells(blocks) -> tuple[float, int, list]:
+    """(1 / cell width, cells M, each row's cells): the width at most a third
+    of the shortest inner piece of any track (two cells hold at most one
+    joint), M cells cover the longest track."""
+    gaps = np.concatenate([np.diff(b[2:int(b[0]) + 1]) for b in blocks] + [[math.inf]])
+    longest = max(b[int(b[0]) + 1] for b in blocks)
+    width = min(gaps.min(), longest) / 3.0
+    cells = int(math.floor(longest / width)) + 2
+    if cells > MAX_CELLS:
+        raise ConfigError("curve.pieces", f"a piece is too short beside the longest track: "
+                          f"the shortest inner piece ({gaps.min()!r} m) must be at least "
+                          f"{3.0 * longest / MAX_CELLS!r} m (1/{MAX_CELLS // 3} of {longest!r} m)")
+    tables = []
+    for b in blocks:
+        n = int(b[0])
+        joints = b[2:n + 1]
+        corners = (np.arange(cells) - 0.5) * width  # a cell's start less half a cell
+        piece = np.searchsorted(joints, corners, side="right")
+        after = np.append(joints, math.inf)[piece]
+        tables.append(np.concatenate([piece.astype(np.float64), after]))
+    return 1.0 / width, cells, tables
 
 
 def track_population(pieces, start=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -103,11 +142,17 @@ def track_population(pieces, start=(0.0, 0.0, 0.0)) -> np.ndarray:
             if len(rows) == 1:
                 raise
             raise ConfigError(error.where, f"track {k} (row {k}): {error.problem}") from None
+    inverse_width, cells, tables = _cells(blocks)
+    for k, (b, table) in enumerate(zip(blocks, tables)):  # the cells before the panels
+        n = int(b[0])
+        head = 8 * n + 2
+        b[4 * n + 2:5 * n + 2] += head + table.size  # the panels' offsets in the row
+        blocks[k] = np.concatenate([b[:head], table, b[head:]])
     block = max(b.size for b in blocks)
     padded = np.zeros((len(blocks), block))
     for k, b in enumerate(blocks):
         padded[k, :b.size] = b
-    return np.concatenate([[len(blocks), block], padded.ravel()])
+    return np.concatenate([[len(blocks), block, inverse_width, cells], padded.ravel()])
 
 
 def track_ends(shared: np.ndarray, rows: np.ndarray) -> np.ndarray:
