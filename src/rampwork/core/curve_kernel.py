@@ -18,16 +18,17 @@ Events (a stop, lift-off or a contact switch, an exit, a non-finite state) are
 located inside the step on the step size with the scene's own method, to
 rounding: the largest clean step size and the smallest that is not are
 adjacent floats, and the step of the latter is committed (secant guesses
-on the failing condition, bisection as the safeguard: curve_events.py).  Then the
-rest rule (§5) decides at a stop.
+on the failing condition, bisection as the safeguard: curve_events.py, in
+the lanes for the adaptive pairs).  Then the rest rule (§5) decides at a stop.
 
 This module holds a trajectory's scalar parts, on the lane state of
 ``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
 :func:`_iterate` (one step, with its event resolved in full), the rest
 rule, the contact sign and the horizontal path.  The lane kernel (curve_lanes.py) takes
 clean steps for a block of lanes at once and hands every other step to
-:func:`_iterate`; run with its vector loop off, it is the scalar kernel the
-tests compare it with, bit for bit.
+:func:`_iterate` (an adaptive pair's event step once the lanes have located
+it); run with its vector loop off, it is the scalar kernel the tests
+compare it with, bit for bit.
 
 The functions here are templates: ``curve_frame``, ``curve_point``,
 ``curve_step`` and the helper names are globals bound per scene by
