@@ -2,8 +2,9 @@
 
 The lane kernel takes clean steps for a block of lanes in one vector loop and
 every other step (events, vertical tangents, rejections it cannot take) in
-the scalar code; run with the vector loop off (``vector=False``) every step
-goes through that scalar code alone.  Both must give the same bits, for every
+the scalar code, the adaptive pairs' events located in the vector loop
+first; run with the vector loop off (``vector=False``) every step goes
+through that scalar code alone.  Both must give the same bits, for every
 method, on random scenes with stops, reversals, lift-offs, exits, contact
 switches, joints and drag, whatever the thread count, tile size or order of
 the trajectories.  (The physics itself is tested against closed forms in
@@ -148,3 +149,57 @@ def test_simulate_runs_curve_scenes_on_the_threads_asked_for():
         np.testing.assert_array_equal(one[name].values, two[name].values)
     codes = set(np.unique(one.status.values).tolist())
     assert {st.EXITED, st.LIFTED_OFF} <= codes, codes
+
+
+def test_lanes_locate_an_event_as_the_scalar_locator_does():
+    """curve_events.py: the bracket kept in lane fields, a trial per call
+    (as the vector loop takes them), ends where the scalar loop ends, bit
+    for bit, on adjacent step sizes: the lower clean, the upper not.  A toy
+    step (a linear reversal u - a h and an end p_hi) stands in for a
+    method's."""
+    from rampwork.core import curve_events as ce
+    from rampwork.core.curve_kernel import EV_HI, LANES, N_FIELDS
+    from rampwork.core.jit import jit, specialise
+
+    @jit
+    def toy_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
+                 atol, frame):
+        p1, u1 = p + h * u, u - 3.0 * h
+        clean = (d * u1 > 0.0) and (p1 <= p_hi)
+        return p1, u1, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, clean, frame, False
+
+    constants = {"JOINTS": 0, "try_step": toy_step}
+    names = (("event_guess", ce._event_guess), ("event_trial", ce._event_trial),
+             ("locate_event", ce._locate_event), ("lane_trial", ce._lane_trial))
+    built = {}
+    for name, template in names:
+        built[name] = specialise(template, f"test_lane_events_{name}", dict(constants),
+                                 cache=False)
+        constants[name] = built[name]
+    frame = (0.0, 1.0, 0.0, 1.0)
+    shared = np.zeros(1)
+    for p, u, p_hi in ((0.0, 2.0, 10.0), (0.0, 2.0, 0.5), (0.3, 1e-3, 10.0)):
+        h = 2.0  # the reversal at h = u / 3, the end at (p_hi - p) / u
+        step = toy_step(p, u, 0.0, 1.0, 1.0, h, 9.81, 0.0, 0.0, 0.0, 0.0, shared, 0.0, 0.0,
+                        -10.0, p_hi, np.nan, 1e-6, 1e-6, frame)
+        assert not step[8]
+        hi, _ = built["locate_event"](p, u, 0.0, 1.0, 1.0, h, 9.81, 0.0, 0.0, 0.0, 0.0, shared,
+                                      0.0, 0.0, -10.0, p_hi, np.nan, 1e-6, 1e-6, frame, step)
+        lanes = np.full(N_FIELDS * LANES, 7.0)  # a lane's earlier values: overwritten
+        closed = ce.lane_bracket(lanes, 0, False, True, step[8], h, step[0], step[1], step[7],
+                                 p, u, 1.0)
+        trials = 0
+        while not closed:
+            trial = built["lane_trial"](lanes, 0, True, h, p, 1.0, 1.0, -10.0, p_hi, np.nan)
+            step = toy_step(p, u, 0.0, 1.0, 1.0, trial, 9.81, 0.0, 0.0, 0.0, 0.0, shared, 0.0,
+                            0.0, -10.0, p_hi, np.nan, 1e-6, 1e-6, frame)
+            closed = ce.lane_bracket(lanes, 0, True, False, step[8], trial, step[0], step[1],
+                                     step[7], p, u, 1.0)
+            trials += 1
+        assert lanes[EV_HI * LANES] == hi
+        assert 0 < trials < 40  # far fewer than bisection's ~50 on these
+        below = np.nextafter(hi, 0.0)
+        args = (9.81, 0.0, 0.0, 0.0, 0.0, shared, 0.0, 0.0, -10.0, p_hi, np.nan, 1e-6, 1e-6,
+                frame)
+        assert toy_step(p, u, 0.0, 1.0, 1.0, below, *args)[8]
+        assert not toy_step(p, u, 0.0, 1.0, 1.0, hi, *args)[8]

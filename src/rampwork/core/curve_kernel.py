@@ -18,16 +18,17 @@ Events (a stop, lift-off or a contact switch, an exit, a non-finite state) are
 located inside the step on the step size with the scene's own method, to
 rounding: the largest clean step size and the smallest that is not are
 adjacent floats, and the step of the latter is committed (secant guesses
-on the failing condition, bisection as the safeguard: :func:`_locate_event`).  Then the
-rest rule (§5) decides at a stop.
+on the failing condition, bisection as the safeguard: curve_events.py, in
+the lanes for the adaptive pairs).  Then the rest rule (§5) decides at a stop.
 
 This module holds a trajectory's scalar parts, on the lane state of
 ``curve_lanes.py`` (field F of lane i at ``lanes[F * LANES + i]``):
 :func:`_iterate` (one step, with its event resolved in full), the rest
 rule, the contact sign and the horizontal path.  The lane kernel (curve_lanes.py) takes
 clean steps for a block of lanes at once and hands every other step to
-:func:`_iterate`; run with its vector loop off, it is the scalar kernel the
-tests compare it with, bit for bit.
+:func:`_iterate` (an adaptive pair's event step once the lanes have located
+it); run with its vector loop off, it is the scalar kernel the tests
+compare it with, bit for bit.
 
 The functions here are templates: ``curve_frame``, ``curve_point``,
 ``curve_step`` and the helper names are globals bound per scene by
@@ -53,9 +54,7 @@ from .jit import fma, jit
 # bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
 curve_frame = curve_point = curve_step = try_step = rest_rule = None
 contact_sign = x_travelled = accepted_factor = rejected_factor = None
-locate_event = event_guess = None
-#: the event locator's least push past a guess, relative to it (2 ulps or so)
-PUSH_ULPS = 2.0 ** -51
+locate_event = None
 ADAPTIVE = False  # an embedded pair with step-size control (per trajectory)
 # the pair's PI gains (control.PI_DOPRI5, PI_DOP853) and the exponent of a
 # rejected step's shrink factor (1 / order)
@@ -98,10 +97,18 @@ INPUTS = ("p0", "u0", "mu_k", "mu_s", "g", "m", "s0", "s1", "s2", "s3", "p_lo", 
 # next step's first stage, without joints: the same bits as evaluated anew);
 # JOINT2: the second joint (JOINT < JOINT2; NaN: none).  With MANY_JOINTS,
 # JOINT and JOINT2 are the offset and count of the joints in ``shared``.
+# EVENT: 1.0 while the lanes locate an event in the lane's step (the
+# adaptive pairs, curve_lanes.py), with the bracket's state in EV_* (as
+# curve_events.py names it); its step is committed by _iterate once closed.
 (P, U, D, SN, T, HN, EPREV, REJB, WORK, CURV, DISP, PATH, PATHX, DRAGW, NUMIN, XNOW,
  COSNOW, STEPS, NREJ, INROW, NREV, PLIFT, STATUS, TRAJ, E0, KAPPA0, BRANCH, FLAG,
- MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW, JOINT2) = range(43)
-N_FIELDS = 43
+ MUK, MUS, G, S0, S1, S2, LO, HI, B, C, JOINT, SINNOW, KAPNOW, DPDSNOW, JOINT2, EVENT,
+ EV_LO, EV_HI, EV_LOP, EV_LOU, EV_LONU, EV_HIP, EV_HIU, EV_HINU, EV_WLO, EV_WHI, EV_MOVED,
+ EV_WBEFORE, EV_WLAST, EV_GBEFORE) = range(58)
+N_FIELDS = 58
+#: the bracket's fields, in curve_events.py's order of its state
+BRACKET = (EV_LO, EV_HI, EV_LOP, EV_LOU, EV_LONU, EV_HIP, EV_HIU, EV_HINU, EV_WLO, EV_WHI,
+           EV_MOVED, EV_WBEFORE, EV_WLAST, EV_GBEFORE)
 #: lanes per block (the vector loop's width); results do not depend on it
 LANES = 64
 #: the empty lane's STATUS
@@ -154,99 +161,6 @@ def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, jo
         clean = clean and not ((p - joint) * (p1 - joint) < 0.0)
     rough = clean and ((nu_low <= 0.0) if sn > 0.0 else (nu_high >= 0.0))
     return p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough
-
-
-def _event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight_hi, p, d, sn,
-                 p_lo, p_hi, joint):
-    """Where the first event condition that fails at step size ``hi`` (and
-    holds at ``lo``) crosses 0, by the secant through its values at the two
-    (``lo_*``, ``hi_*``: p, u and nu at the ends of those steps; each end's
-    value times its ``weight``, the Illinois method's): the earliest such
-    crossing, or inf where no condition's secant says (a non-finite step,
-    a condition this does not model)."""
-    best = math.inf
-    span = hi - lo
-    # each condition's value: > 0 where it holds, as _try_step.  An end
-    # reached exactly holds, and p is rounded: the step's p passes p_hi where
-    # the exact one passes p_hi + half an ulp, so the guess aims there (on a
-    # p held on the end over many step sizes the secant has no slope, and
-    # bisection took ~50 trials)
-    half_hi = abs(p_hi) * 2.0 ** -53
-    half_lo = abs(p_lo) * 2.0 ** -53
-    for value_lo, value_hi, fails in (
-            (d * lo_u, d * hi_u, not (d * hi_u > 0.0)),
-            (sn * lo_nu, sn * hi_nu, not (sn * hi_nu > 0.0)),
-            (p_hi - lo_p + half_hi, p_hi - hi_p + half_hi, not (hi_p <= p_hi)),
-            (lo_p - p_lo + half_lo, hi_p - p_lo + half_lo, not (hi_p >= p_lo)),
-            ((lo_p - joint) * (p - joint), (hi_p - joint) * (p - joint),
-             (p - joint) * (hi_p - joint) < 0.0 if JOINTS else False)):
-        if fails and value_lo > 0.0:
-            a = weight_lo * value_lo
-            guess = lo + span * (a / (a - weight_hi * value_hi))
-            if guess < best:
-                best = guess
-    return best
-
-
-def _locate_event(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
-                  atol, frame, step_h):
-    """The event inside the step of size ``h`` from p (``step_h``: that
-    step, not clean): ``(hi, step)``: the step size hi and its step,
-    with lo < hi adjacent floats, lo's step clean (0 at first) and hi's
-    not.  The same bracket as bisection gives where cleanness switches once
-    over the step (a switch that flickers within rounding may come out an
-    ulp apart), found in fewer steps: each trial is the Illinois method's
-    secant guess on the failing condition (its values at the bracket's ends;
-    a side kept twice in a row has its value halved), pushed past the guess
-    towards the end that did not move last by the guess's last change, at
-    least PUSH_ULPS of it, so that the bracket closes from both sides (a
-    plain secant closes one side and then crawls: ~50 trials, bisection's
-    count, on a linear condition such as Euler's reversal); a plain
-    bisection where the guess is not strictly inside or the bracket has not
-    halved over the last two trials.  Every trial is a whole step of the
-    scene's method, so the bracket is exact whatever the method's error."""
-    lo = 0.0
-    hi = h
-    lo_p, lo_u = p, u
-    lo_nu = normal_along_n(u, frame[1], frame[2], g)
-    hi_p, hi_u, hi_nu = step_h[0], step_h[1], step_h[7]
-    weight_lo = weight_hi = 1.0
-    moved = 0.0  # +1.0: lo moved last, -1.0: hi did
-    width_before = width_last = math.inf
-    guess_before = math.nan
-    while True:
-        mid = 0.5 * (lo + hi)
-        if not (lo < mid < hi):
-            break
-        trial = mid
-        if hi - lo <= 0.5 * width_before:
-            guess = event_guess(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo,
-                                 weight_hi, p, d, sn, p_lo, p_hi, joint)
-            if lo < guess < hi:
-                # past the guess by its last change (a few ulps at least),
-                # towards the end that stayed: the bracket closes from both sides
-                push = abs(guess - guess_before)
-                push = max(push if push == push else 0.0, abs(guess) * PUSH_ULPS)
-                trial = guess + push if moved > 0.0 else guess - push
-                if not (lo < trial < hi):
-                    trial = guess
-                guess_before = guess
-        width_before = width_last
-        width_last = hi - lo
-        step = try_step(p, u, q, d, sn, trial, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi,
-                        joint, rtol, atol, frame)
-        if step[8]:
-            lo, lo_p, lo_u, lo_nu = trial, step[0], step[1], step[7]
-            weight_lo = 1.0
-            weight_hi = 0.5 * weight_hi if moved > 0.0 else 1.0
-            moved = 1.0
-        else:
-            hi, hi_p, hi_u, hi_nu = trial, step[0], step[1], step[7]
-            step_h = step
-            weight_hi = 1.0
-            weight_lo = 0.5 * weight_lo if moved < 0.0 else 1.0
-            moved = -1.0
-    return hi, step_h
 
 
 def _rest_rule(p, mu_k, mu_s, g, side, s0, s1, s2, s3, shared):
@@ -395,11 +309,15 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
         s3 = branch(p, d, joint, math.nan)[0]
         lanes[BRANCH * LANES + i] = s3
     frame = curve_frame(p, s0, s1, s2, s3, shared)
+    located = lanes[EVENT * LANES + i] != 0.0  # by the lanes: the step of EV_HI is the event's
+    if located:
+        step_size = lanes[EV_HI * LANES + i]
+        lanes[EVENT * LANES + i] = 0.0
     p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
         p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
         frame)
     hi = step_size
-    if rough and not fresh(lanes, i):
+    if rough and not fresh(lanes, i):  # (never a located step: it is not clean)
         # a dip of s_nu nu through 0 and back inside the step (docs/physics.md
         # §5.1): shrink the step until the event shows at a step's end, where
         # locate_event below finds it on the end's sign alone
@@ -420,7 +338,7 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
             if not probe[8]:
                 hi = ROUGH_SHRINK * step_size
                 p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = probe
-    if not clean:
+    if not clean and not located:
         # the event: the step size hi of the first step that is not clean
         # (the one before it, lo, adjacent, is), and that step
         step_size, (p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough) = locate_event(

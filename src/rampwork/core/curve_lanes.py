@@ -5,22 +5,17 @@ Why lanes: one trajectory at a time is bound by the latency of its divisions
 and its branches (core/kernel.py's docstring says it for ramps).  Here a tile
 of trajectories runs through a block of ``LANES`` lanes whose state is a
 structure of arrays (curve_kernel.py's layout: field F of lane i at
-``lanes[F * LANES + i]``).  The vector loop (:func:`_vector_step`) takes one
+``lanes[F * LANES + i]``).  The vector loop (curve_vector.py) takes one
 step on every lane with no data-dependent branch, so LLVM turns it into
-vector code: the scene's own step (``curve_kernel._try_step``, the
-``CURVE_STEPPERS`` entry specialised), the end point ``X`` for the
-horizontal path, and the lane's "clean" test: no event condition fired
-(direction, ends, contact sign, joint), finite, no vertical tangent crossed
-(cos phi keeps its sign, so ``|dX|`` is one difference), not past ``t_max``,
-and for an adaptive pair an error norm <= 1 (a rejected clean attempt is
-also taken here).  A clean step is committed by selects, with the
-arithmetic of the scalar code in the same order; any other step freezes
-the lane (FLAG) until the next scalar pass, where ``curve_kernel._iterate``
-takes it in full: the event located on the step size, the
-rest rule, lift-off, exits, divergence.  Every ``SUBSTEPS`` vector steps a
-scalar pass resolves frozen lanes, writes finished trajectories out and
-refills their lanes from the tile; once the tile has nothing left to load,
-the running lanes move to the front so that its tail steps few empty lanes.
+vector code, and commits the clean ones by selects; a lane whose step holds
+an event either locates it there, trial by trial (the adaptive pairs,
+curve_events.py), or waits for the next scalar pass, where
+``curve_kernel._iterate`` takes its step in full: the event located on the
+step size, the rest rule, lift-off, exits, divergence.  Every ``SUBSTEPS``
+vector steps a scalar pass resolves frozen lanes (commits the located
+events), writes finished trajectories out and refills their lanes from
+the tile; once the tile has nothing left to load, the running lanes move
+to the front so that its tail steps few empty lanes.
 
 So every trajectory sees the same floating-point operations whichever lane,
 tile, block or thread runs it, and the same as with the vector loop off
@@ -34,28 +29,28 @@ import math
 
 import numpy as np
 
+from . import curve_events as ce
 from . import curve_kernel as ck
 from . import curve_trace
 from . import status as st
 from .control import ERROR_FLOOR
 from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
-    B, BRANCH, C, COSNOW, CURV, D, DISP, DPDSNOW, DRAGW, E0, EMPTY, EPREV, FLAG, G, HI, HN,
-    I_B, I_C, I_G, I_HI, I_JOINT, I_JOINT2, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U,
-    INROW, JOINT, JOINT2, KAPNOW, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL,
-    O_DISP, O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U,
-    O_W, O_WD, O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1,
-    S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, TRAJ, U, WORK, XNOW, branch, fresh,
-    MANY_JOINTS, store_frame)
-from .curve_track import branch_near, joints_behind
+    B, BRANCH, C, CURV, D, DISP, DRAGW, E0, EMPTY, EPREV, EVENT, FLAG, G, HI, HN, I_B, I_C, I_G,
+    I_HI, I_JOINT, I_JOINT2, I_LO, I_M, I_MUK, I_MUS, I_P, I_S0, I_S1, I_S2, I_S3, I_U, INROW,
+    JOINT, JOINT2, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL, O_DISP,
+    O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U, O_W, O_WD,
+    O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1, S2, SN,
+    STATUS, STEPS, T, TRAJ, U, WORK, XNOW, MANY_JOINTS, store_frame)
+from .curve_track import joints_behind
 from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, _stage_from, normal_along_n
+from .curve_vector import BLOCK, _vector_step
 from .jit import fma, jit, specialise
 from .threads import current_threads, run_items
 
 # bound per scene by build_curve_kernel (compile-time constants)
-curve_frame = curve_point = try_step = accepted_factor = rejected_factor = None
-rest_rule = contact_sign = None
+curve_frame = curve_point = rest_rule = contact_sign = None
 start_lane = iterate = finish_lane = vector_step = vector_pass = run_tile = None
-ADAPTIVE = DRAG = False
+ADAPTIVE = False
 JOINTS = 0  # the curve's joints (0, 1, 2 or MANY_JOINTS)
 ONE_SIDED = True
 VECTOR = True  # False: every step through curve_kernel._iterate (the scalar reference)
@@ -66,9 +61,6 @@ VECTOR = True  # False: every step through curve_kernel._iterate (the scalar ref
 #: 1 to 4 are alike, so the pass itself costs little
 SUBSTEPS = 4
 SUBSTEPS_ADAPTIVE = 4
-#: lanes per vector loop: a constant trip count, so that LLVM proves the
-#: fields' accesses disjoint (fields lie LANES apart) and vectorises
-BLOCK = 16
 
 
 def _start_lane(lanes, i, inputs, j, shared, h, side):
@@ -103,7 +95,8 @@ def _start_lane(lanes, i, inputs, j, shared, h, side):
         p_lift = p
     if status == st.NOT_RUN and ((d > 0.0 and p >= p_hi) or (d < 0.0 and p <= p_lo)):
         status = st.EXITED
-    for field in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG):
+    for field in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG,
+                  EVENT):
         lanes[field * LANES + i] = 0.0
     lanes[P * LANES + i] = p
     lanes[U * LANES + i] = u
@@ -185,111 +178,11 @@ def _finish_lane(lanes, i, inputs, shared, out, status):
     lanes[STATUS * LANES + i] = EMPTY
 
 
-def _vector_step(lanes, i, shared, t_max, side, rtol, atol):
-    """Lane i's next step where it is clean, committed by selects (see the
-    module docstring); otherwise FLAG is set and nothing else changes."""
-    running = lanes[STATUS * LANES + i] == st.NOT_RUN
-    free = running & (lanes[FLAG * LANES + i] == 0.0)
-    p = lanes[P * LANES + i]
-    u = lanes[U * LANES + i]
-    d = lanes[D * LANES + i]
-    sn = lanes[SN * LANES + i]
-    t = lanes[T * LANES + i]
-    h_next = lanes[HN * LANES + i]
-    g = lanes[G * LANES + i]
-    s0 = lanes[S0 * LANES + i]
-    s1 = lanes[S1 * LANES + i]
-    s2 = lanes[S2 * LANES + i]
-    s3 = lanes[BRANCH * LANES + i]
-    p_lo = lanes[LO * LANES + i]
-    p_hi = lanes[HI * LANES + i]
-    b = lanes[B * LANES + i]
-    c = lanes[C * LANES + i]
-    joint = lanes[JOINT * LANES + i]
-    step_size = h_next if t + h_next <= t_max else t_max - t
-    q = d * lanes[MUK * LANES + i] * sn
-    if JOINTS:
-        s3_before = s3
-        if JOINTS == MANY_JOINTS:
-            s3, joint = branch_near(p, d, shared, int(joint), int(lanes[JOINT2 * LANES + i]), s3)
-        elif JOINTS == 2:
-            s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
-        else:  # one joint: the only one a step may cross
-            s3 = branch(p, d, joint, math.nan)[0]
-        lanes[BRANCH * LANES + i] = s3 if free else s3_before
-    sin_now = lanes[SINNOW * LANES + i]
-    cos_now = lanes[COSNOW * LANES + i]
-    kappa_now = lanes[KAPNOW * LANES + i]
-    dp_ds_now = lanes[DPDSNOW * LANES + i]
-    if JOINTS:  # the frame on the step's own branch, which the last step's end may not be
-        frame = curve_frame(p, s0, s1, s2, s3, shared)
-    else:
-        frame = (sin_now, cos_now, kappa_now, dp_ds_now)
-    p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
-        p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
-        frame)
-    sin1, cos1, kappa1, dp_ds1 = frame1
-    # X at the step's end, as curve_kernel._x_travelled takes it (a NaN end,
-    # never committed, is evaluated at p_lo: a family's point may loop on it)
-    p_end = min(max(p1, p_lo), p_hi)
-    p_end = p_end if p_end == p_end else p_lo
-    x1, _ = curve_point(p_end, s0, s1, s2, s3, shared)
-    x_now = lanes[XNOW * LANES + i]
-    finite = (math.isfinite(p1) & math.isfinite(u1) & math.isfinite(dw) & (nu1 == nu1)
-              & math.isfinite(dk))
-    attempt = free & clean & (t < t_max)
-    # a rough step (a dip of nu inside it) goes to the scalar code, as there
-    fast = attempt & finite & (not (cos_now * cos1 < 0.0)) & (not (rough & (not fresh(lanes, i))))
-    if ADAPTIVE:
-        accepted = err <= 1.0
-        fast = fast & accepted
-        h_rejected = step_size * rejected_factor(err)
-        rejected = attempt & (not accepted) & (err == err) & (h_rejected > SMALLEST_STEP * max(t, 1.0))
-        rejected_before = lanes[REJB * LANES + i]
-        error_previous = lanes[EPREV * LANES + i]
-        h_accepted = step_size * accepted_factor(err, error_previous, rejected_before != 0.0)
-        lanes[HN * LANES + i] = h_accepted if fast else (h_rejected if rejected else h_next)
-        lanes[EPREV * LANES + i] = max(err, ERROR_FLOOR) if fast else error_previous
-        lanes[REJB * LANES + i] = 0.0 if fast else (1.0 if rejected else rejected_before)
-        lanes[NREJ * LANES + i] += 1.0 if rejected else 0.0
-        frozen = running & (not fast) & (not rejected)
-    else:
-        frozen = running & (not fast)
-    lanes[FLAG * LANES + i] = 1.0 if frozen else 0.0
-    lanes[P * LANES + i] = p1 if fast else p
-    lanes[U * LANES + i] = u1 if fast else u
-    lanes[T * LANES + i] = t + step_size if fast else t
-    lanes[STEPS * LANES + i] += 1.0 if fast else 0.0
-    lanes[INROW * LANES + i] = 0.0 if fast else lanes[INROW * LANES + i]
-    work = lanes[WORK * LANES + i]
-    lanes[WORK * LANES + i] = work + dw if fast else work
-    curvature = lanes[CURV * LANES + i]
-    lanes[CURV * LANES + i] = curvature + dk if fast else curvature
-    displacement = lanes[DISP * LANES + i]
-    lanes[DISP * LANES + i] = displacement + dx if fast else displacement
-    path = lanes[PATH * LANES + i]
-    lanes[PATH * LANES + i] = path + d * dx if fast else path
-    if DRAG:
-        drag_work = lanes[DRAGW * LANES + i]
-        lanes[DRAGW * LANES + i] = drag_work + dwd if fast else drag_work
-    nu_min = lanes[NUMIN * LANES + i]
-    lanes[NUMIN * LANES + i] = min(nu_min, side * nu1) if fast else nu_min
-    path_x = lanes[PATHX * LANES + i]
-    lanes[PATHX * LANES + i] = path_x + abs(x1 - x_now) if fast else path_x
-    lanes[XNOW * LANES + i] = x1 if fast else x_now
-    lanes[SINNOW * LANES + i] = sin1 if fast else sin_now
-    lanes[COSNOW * LANES + i] = cos1 if fast else cos_now
-    lanes[KAPNOW * LANES + i] = kappa1 if fast else kappa_now
-    lanes[DPDSNOW * LANES + i] = dp_ds1 if fast else dp_ds_now
-
-
 def _vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks):
     """``SUBSTEPS`` vector steps on lanes 0 .. n_blocks * BLOCK - 1."""
     for _ in range(SUBSTEPS_ADAPTIVE if ADAPTIVE else SUBSTEPS):
         for block in range(n_blocks):
-            first = block * BLOCK
-            for k in range(BLOCK):
-                vector_step(lanes, first + k, shared, t_max, side, rtol, atol)
+            vector_step(lanes, block * BLOCK, shared, t_max, side, rtol, atol)
 
 
 @jit
@@ -405,7 +298,8 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     name = f"curve_{key}_{method}{flags}"
     alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
-                 "ADAPTIVE": adaptive, "JOINTS": int(joints), "FRICTION": friction,
+                 "ADAPTIVE": adaptive, "LANE_EVENTS": adaptive, "JOINTS": int(joints),
+                 "FRICTION": friction,
                  "DRAG_LINEAR": drag_linear, "DRAG_QUADRATIC": drag_quadratic,
                  "DRAG": drag_linear or drag_quadratic, "VECTOR": vector, "PI_ALPHA": alpha,
                  "PI_BETA": beta, "REJECT_EXPONENT": shrink}
@@ -424,8 +318,9 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     constants["curve_step"] = build(step, "step", stage=built_stage, stage_rates=built_rates)
     constants["try_step"] = build(ck._try_step, "try")
     for template, bound in ((ck._rest_rule, "rest_rule"), (ck._contact_sign, "contact_sign"),
-                            (ck._x_travelled, "x_travelled"),
-                            (ck._event_guess, "event_guess"), (ck._locate_event, "locate_event"),
+                            (ck._x_travelled, "x_travelled"), (ce._event_guess, "event_guess"),
+                            (ce._event_trial, "event_trial"), (ce._locate_event, "locate_event"),
+                            (ce._lane_trial, "lane_trial"),
                             (ck._accepted_factor, "accepted_factor"),
                             (ck._rejected_factor, "rejected_factor"),
                             (_start_lane, "start_lane"), (ck._iterate, "iterate"),
