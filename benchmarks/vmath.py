@@ -148,6 +148,18 @@ def cycloid_table(n, chunk, np, rng):
     return rows, table
 
 
+def elementwise(function):
+    """A jitted loop out[i] = function(x[i]) (the lane loop shape rampwork's
+    kernels give the functions: one call per element, inlined)."""
+    from rampwork.core.jit import jit
+
+    @jit(cache=False)
+    def loop(x, out):
+        for i in range(x.size):
+            out[i] = function(x[i])
+    return loop
+
+
 #: (function, low, high) of the exp and atan ranges (high None: log-spaced magnitudes, both signs)
 EXP_ATAN_RANGES = (("exp", -2.0, 2.0), ("exp", -708.0, 709.78), ("exp", -745.13, -708.4),
                    ("atan", -3.0, 3.0), ("atan", -100.0, 100.0), ("atan", "log-spaced 1e-300..1e300", None))
@@ -198,13 +210,6 @@ def exp_atan_speed(speed_n, np, rng):
     from rampwork.core import vmath_exp
     from rampwork.core.jit import jit
 
-    def elementwise(function):
-        @jit(cache=False)
-        def loop(x, out):
-            for i in range(x.size):
-                out[i] = function(x[i])
-        return loop
-
     @jit(cache=False)
     def libm_exp(a):
         return math.exp(a)
@@ -249,15 +254,6 @@ def main(argv=None):
 
     long_double = np.finfo(np.longdouble).nmant >= 63
     reference = "long double (sinl/cosl)" if long_double else "numpy float64"
-
-    def elementwise(function):
-        """A jitted loop out[i] = function(x[i]) (the lane loop shape rampwork's
-        kernels give the functions: one call per element, inlined)."""
-        @jit(cache=False)
-        def loop(x, out):
-            for i in range(x.size):
-                out[i] = function(x[i])
-        return loop
 
     @jit(cache=False)
     def sincos_loop(x, s, c):

@@ -42,6 +42,7 @@ atan (fdlibm's s_atan.c, branch-free)
 from __future__ import annotations
 
 from .jit import bits_float, float_bits, fma, jit
+from .vmath import SHIFTER, SIGN_BIT
 
 #: measured maximum errors (ulp of the correctly rounded result; benchmarks/vmath.py, 10**7 per range)
 EXP_ULP = 1.0
@@ -49,7 +50,6 @@ ATAN_ULP = 1.0
 
 # -- exp ----------------------------------------------------------------------
 
-SHIFTER = 6755399441055744.0  # 1.5 * 2**52: x + SHIFTER - SHIFTER = rint(x), |x| < 2**51
 INV_LN2 = 1.4426950408889634
 LN2_HI = 0.69314718055966295651160180568695068359375  # 32 significant bits (SLEEF L2U)
 LN2_LO = 0.28235290563031577122588448175013436025525412068e-12  # ln 2 - LN2_HI (SLEEF L2L)
@@ -122,8 +122,6 @@ T7 = -5.83357013379057348645e-02
 T8 = 4.97687799461593236017e-02
 T9 = -3.65315727442169155270e-02
 T10 = 1.62858201153657823623e-02
-
-SIGN_BIT = -0x8000000000000000  # int64 with only bit 63 set
 
 
 @jit
