@@ -1,4 +1,4 @@
-"""Error table and speed of core.vmath's sin, cos (and cbrt), and of the cycloid family (issue 19, item 3).
+"""Error table and speed of core.vmath's sin, cos (and cbrt), of core.vmath_exp's exp and atan (issue 21), and of the cycloid family (issue 19, item 3).
 
 Error: over ``--n`` (default 10**7) arguments per function and range, the
 maximum and mean error in ulps against the exact value (long double sinl/cosl,
@@ -12,10 +12,17 @@ x = r (u + sin u), over ``--n`` arguments per range and radius (r = 1 and
 0.5: powers of 2, so that x / r is exact in the reference), the ranges
 including both cusps, the switch between the two formulations and x -> 0.
 
+exp and atan (core.vmath_exp) over ``--n`` arguments per range against
+long double expl/atanl: the ranges the descent quadrature needs (|x| <= 2
+for exp, |x| <= 3 for atan) and their whole domains (exp: normal and
+subnormal results; atan: up to 1e300).
+
 Speed: arguments/s of vmath.sin, vmath.sincos and math.sin, math.sin plus
-math.cos in a jitted loop over an array (the loop vectorises only with vmath).
+math.cos, vmath_exp.exp and math.exp, vmath_exp.atan and math.atan in a
+jitted loop over an array (the loop vectorises only with vmath).
 
     PYTHONPATH=src python benchmarks/vmath.py [--n 1e7] [--out benchmarks/results]
+    PYTHONPATH=src python benchmarks/vmath.py --only exp_atan     # exp and atan alone
 """
 
 from __future__ import annotations
@@ -141,31 +148,112 @@ def cycloid_table(n, chunk, np, rng):
     return rows, table
 
 
+def elementwise(function):
+    """A jitted loop out[i] = function(x[i]) (the lane loop shape rampwork's
+    kernels give the functions: one call per element, inlined)."""
+    from rampwork.core.jit import jit
+
+    @jit(cache=False)
+    def loop(x, out):
+        for i in range(x.size):
+            out[i] = function(x[i])
+    return loop
+
+
+#: (function, low, high) of the exp and atan ranges (high None: log-spaced magnitudes, both signs)
+EXP_ATAN_RANGES = (("exp", -2.0, 2.0), ("exp", -708.0, 709.78), ("exp", -745.13, -708.4),
+                   ("atan", -3.0, 3.0), ("atan", -100.0, 100.0), ("atan", "log-spaced 1e-300..1e300", None))
+
+
+def exp_atan_table(n, chunk, np, rng):
+    """Max and mean ulp error, share correctly rounded, and numpy's max ulp, of
+    vmath_exp.exp and vmath_exp.atan per range, against long double."""
+    from rampwork.core import vmath_exp
+    from rampwork.core.jit import jit
+
+    @jit(cache=False)
+    def loop(x, e, a):
+        for i in range(x.size):
+            e[i] = vmath_exp.exp(x[i])
+            a[i] = vmath_exp.atan(x[i])
+
+    rows, entries = [], []
+    for name, low, high in EXP_ATAN_RANGES:
+        worst = total = numpy_worst = 0.0
+        rounded, done = 0, 0
+        while done < n:
+            m = min(chunk, n - done)
+            if high is None:
+                x = 10.0 ** rng.uniform(-300.0, 300.0, m) * rng.choice([-1.0, 1.0], m)
+            else:
+                x = rng.uniform(low, high, m)
+            e, a = np.empty_like(x), np.empty_like(x)
+            loop(x, e, a)
+            got, numpy_f = (e, np.exp) if name == "exp" else (a, np.arctan)
+            exact = numpy_f(x.astype(np.longdouble))
+            err = ulp_error(got, exact, np)
+            worst, total = max(worst, float(err.max())), total + float(err.sum())
+            numpy_worst = max(numpy_worst, float(ulp_error(numpy_f(x), exact, np).max()))
+            rounded += int((got == exact.astype(np.float64)).sum())
+            done += m
+        label = low if high is None else f"[{low:g}, {high:g}]"
+        entries.append({"function": name, "range": label, "n": n, "max_ulp": worst, "mean_ulp": total / n,
+                        "correctly_rounded": rounded / n, "numpy_max_ulp": numpy_worst})
+        rows.append([name, label, f"{n:.0e}", f"{worst:.3f}", f"{total / n:.4f}", f"{100 * rounded / n:.2f}%",
+                     f"{numpy_worst:.3f}"])
+        print("  " + "  ".join(rows[-1]), flush=True)
+    return rows, entries, loop
+
+
+def exp_atan_speed(speed_n, np, rng):
+    """arguments/s of vmath_exp.exp, math.exp, vmath_exp.atan, math.atan in a jitted loop (best of 5)."""
+    from rampwork.core import vmath_exp
+    from rampwork.core.jit import jit
+
+    @jit(cache=False)
+    def libm_exp(a):
+        return math.exp(a)
+
+    @jit(cache=False)
+    def libm_atan(a):
+        return math.atan(a)
+
+    x = rng.uniform(-3.0, 3.0, speed_n)
+    out = np.empty_like(x)
+    speed = {}
+    for name, function in (("vmath_exp.exp", vmath_exp.exp), ("math.exp", libm_exp),
+                           ("vmath_exp.atan", vmath_exp.atan), ("math.atan", libm_atan)):
+        loop = elementwise(function)
+        loop(x, out)
+        best = math.inf
+        for _ in range(5):
+            started = time.perf_counter()
+            loop(x, out)
+            best = min(best, time.perf_counter() - started)
+        speed[name] = speed_n / best
+    return speed
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=float, default=1e7, help="arguments per function and range (default 1e7)")
     p.add_argument("--chunk", type=int, default=2_000_000)
     p.add_argument("--speed-n", type=int, default=10_000_000)
     p.add_argument("--out", type=pathlib.Path, default=C.RESULTS_DIR)
+    p.add_argument("--only", choices=("exp_atan",), help="only core.vmath_exp's exp and atan")
     args = p.parse_args(argv)
     n = int(args.n)
 
     import numpy as np
+
+    if args.only == "exp_atan":
+        return exp_atan_main(args, n, np)
 
     from rampwork.core import vmath
     from rampwork.core.jit import jit
 
     long_double = np.finfo(np.longdouble).nmant >= 63
     reference = "long double (sinl/cosl)" if long_double else "numpy float64"
-
-    def elementwise(function):
-        """A jitted loop out[i] = function(x[i]) (the lane loop shape rampwork's
-        kernels give the functions: one call per element, inlined)."""
-        @jit(cache=False)
-        def loop(x, out):
-            for i in range(x.size):
-                out[i] = function(x[i])
-        return loop
 
     @jit(cache=False)
     def sincos_loop(x, s, c):
@@ -253,6 +341,9 @@ def main(argv=None):
     print(f"cycloid family (core.ramps) over {n:.0e} arguments per range and radius, against long double")
     cycloid_rows, cycloid_entries = cycloid_table(n, args.chunk, np, rng)
     table += cycloid_entries
+    print(f"exp and atan (core.vmath_exp) over {n:.0e} arguments per range, against long double")
+    exp_atan_rows, exp_atan_entries, _ = exp_atan_table(n, args.chunk, np, rng)
+    table += exp_atan_entries
 
     # speed: best of 5 over one array
     x = rng.uniform(-1e5, 1e5, args.speed_n)
@@ -270,10 +361,12 @@ def main(argv=None):
             call()
             best = min(best, time.perf_counter() - started)
         speed[name] = args.speed_n / best
+    speed.update(exp_atan_speed(args.speed_n, np, rng))
     speed_rows = [[name, C.fmt_rate(rate)] for name, rate in speed.items()]
     ratios = {"sin": speed["vmath.sin"] / speed["math.sin"],
               "sincos": speed["vmath.sincos"] / speed["math.sin + math.cos"],
-              "cbrt": speed["vmath.cbrt"] / speed["x ** (1/3)"]}
+              "cbrt": speed["vmath.cbrt"] / speed["x ** (1/3)"],
+              "exp": speed["vmath_exp.exp"] / speed["math.exp"], "atan": speed["vmath_exp.atan"] / speed["math.atan"]}
 
     text = (f"core.vmath error over {n:.0e} arguments per function and range, against {reference}\n\n"
             + C.text_table(["function", "range", "n", "max ulp", "mean ulp", "correctly rounded",
@@ -283,6 +376,9 @@ def main(argv=None):
             + f"\n\ncycloid family (core.ramps) over {n:.0e} arguments per range and radius, "
             + "against long double:\n\n"
             + C.text_table(["function", "range", "n", "max ulp", "mean ulp"], cycloid_rows) + "\n\n"
+            + f"core.vmath_exp over {n:.0e} arguments per range, against long double:\n\n"
+            + C.text_table(["function", "range", "n", "max ulp", "mean ulp", "correctly rounded", "numpy max ulp"],
+                           exp_atan_rows) + "\n\n"
             + f"speed, jitted loop over {args.speed_n:.0e} arguments (one thread), arguments/s:\n\n"
             + C.text_table(["function", "arguments/s"], speed_rows)
             + "\n\nvmath / libm: " + ", ".join(f"{k} {v:.1f}x" for k, v in ratios.items()) + "\n")
@@ -294,6 +390,28 @@ def main(argv=None):
     C.save_json(args.out / f"vmath-{stamp}.json", data)
     C.save_text(args.out / f"vmath-{stamp}.txt", text)
     print(f"saved {args.out / f'vmath-{stamp}.json'}")
+
+
+def exp_atan_main(args, n, np):
+    rng = np.random.default_rng(21)
+    print(f"core.vmath_exp error over {n:.0e} arguments per function and range, against long double", flush=True)
+    rows, entries, _ = exp_atan_table(n, args.chunk, np, rng)
+    speed = exp_atan_speed(args.speed_n, np, rng)
+    ratios = {"exp": speed["vmath_exp.exp"] / speed["math.exp"], "atan": speed["vmath_exp.atan"] / speed["math.atan"]}
+    text = (f"core.vmath_exp error over {n:.0e} arguments per function and range, against long double\n\n"
+            + C.text_table(["function", "range", "n", "max ulp", "mean ulp", "correctly rounded", "numpy max ulp"],
+                           rows)
+            + f"\n\nspeed, jitted loop over {args.speed_n:.0e} arguments in [-3, 3] (one thread), arguments/s:\n\n"
+            + C.text_table(["function", "arguments/s"], [[k, C.fmt_rate(v)] for k, v in speed.items()])
+            + "\n\nvmath_exp / libm: " + ", ".join(f"{k} {v:.1f}x" for k, v in ratios.items()) + "\n")
+    print(text)
+    stamp = C.timestamp()
+    C.save_json(args.out / f"vmath_exp-{stamp}.json", {"utc": C.utc_now(), "machine": C.machine_info(),
+                                                        "errors": entries, "speed_arguments_per_s": speed,
+                                                        "speed_ratios": ratios,
+                                                        "config": {"n": n, "speed_n": args.speed_n}})
+    C.save_text(args.out / f"vmath_exp-{stamp}.txt", text)
+    print(f"saved {args.out / f'vmath_exp-{stamp}.json'}")
 
 
 if __name__ == "__main__":

@@ -48,14 +48,44 @@ def _population(seed, size, scale=0.1, shape=SHAPE):
 
 
 def test_the_integration_matrices_integrate_polynomials_exactly():
+    """Each level's matrix (stored transposed, its rows in level order, padded
+    with zeros) integrates polynomials up to its degree exactly."""
     xi, jacobian, matrices, offsets = dq.node_tables()
     finest = xi.size // dq.PANELS - 1
-    tau = xi[finest + 1: 2 * finest + 2] * dq.PANELS - 1.0  # panel 1: xi = h (1 + tau)
+    tau = xi[finest + 1: 2 * finest + 2] * dq.PANELS - 1.0  # panel 1: xi = h (1 + tau), in level order
+    assert tau[dq.SLOT] == pytest.approx(0.5 * (1.0 - np.cos(np.pi * np.arange(finest + 1) / finest)), abs=1e-15)
     for level, n in enumerate(dq.LEVELS):
-        matrix = matrices[offsets[level]: offsets[level] + (n + 1) ** 2].reshape(n + 1, n + 1)
-        points = tau[:: finest // n]
+        padded = dq._row_length(n)
+        block = matrices[offsets[level]: offsets[level] + (n + 1) * padded].reshape(n + 1, padded)
+        assert (block[:, n + 1:] == 0.0).all()
+        points = tau[dq.SLOT[:: finest // n]]  # in order of tau
+        matrix = block[:, dq.SLOT[:: finest // n]].T  # row i: the integral to point i
         for degree in (0, 1, n // 2, n):
             assert matrix @ points**degree == pytest.approx(points ** (degree + 1) / (degree + 1), abs=1e-14)
+        assert sorted(dq.SLOT[:: finest // n]) == list(range(n + 1))  # a level's points: its first n + 1 slots
+
+
+def test_the_points_pass_is_the_ramps_own_slope_and_curvature():
+    """_mode_basis and _panel_points (the modes' loop outermost, so that the
+    loop over the points vectorises) give core.ramps.sine_modes_slope_curvature's
+    f' and f'' / (1 + f'^2) bit for bit, and vmath_exp's atan and exp."""
+    from rampwork.core import vmath_exp
+    from rampwork.core.ramps import sine_modes_slope_curvature
+
+    xi, jacobian, _, _ = dq.node_tables()
+    table = _population(9, 3, scale=0.3)
+    shared = np.asarray(SHAPE.ramp(table).shared)
+    size, k = xi.size, SHAPE.k
+    basis = np.empty(2 * k * size)
+    dq._mode_basis(shared, 0.0, 2.0, xi, basis, np.empty(5 * size))
+    fp, arc, bend, grow, integrand, slope, curve = (np.full(size, np.nan) for _ in range(7))
+    for row in range(3):
+        dq._panel_points(shared, float(row), basis, jacobian, 0, dq.PANELS, 0, size // dq.PANELS, 0.25, 0.4, 1.0, 2.0,
+                         G, 0.2, fp, arc, bend, grow, integrand, slope, curve)
+        for j in range(0, size, 7):
+            s, c = sine_modes_slope_curvature(2.0 * xi[j], float(row), 0.0, 0.0, 0.0, shared)
+            assert fp[j] == s and bend[j] == c / (1.0 + s * s)
+            assert grow[j] == pytest.approx(math.exp(0.4 * (math.atan(s) - 0.25)), rel=3e-16)
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.2])

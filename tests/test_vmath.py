@@ -1,4 +1,4 @@
-"""core.vmath: vectorisable sin, cos, sincos, cbrt, inverse_cbrt, sin_small and cos_small
+"""core.vmath and core.vmath_exp: vectorisable sin, cos, sincos, cbrt, inverse_cbrt, sin_small, cos_small, exp and atan
 against numpy (and long double).
 
 The default test draws over 10**6 arguments: uniform in [-1e5, 1e5], log-spaced
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import rampwork as rw
-from rampwork.core import vmath
+from rampwork.core import vmath, vmath_exp
 from rampwork.core.jit import jit
 
 LIMIT = vmath.VALID_ARGUMENT
@@ -219,3 +219,72 @@ def test_sine_family_limits_its_argument():
                      t_max=0.1, integrator=rw.Integrator("rk4", 1e-3))
     with pytest.raises(rw.ConfigError, match="wavenumber"):
         rw.simulate(scene, rw.Sweep.grid(wavenumber=[6.0, 3 * LIMIT], x0=[0.1]))
+
+
+# -- core.vmath_exp: exp and atan ----------------------------------------------
+
+
+@jit
+def _exp_atan_loop(x, e, a):
+    for i in range(x.size):
+        e[i] = vmath_exp.exp(x[i])
+        a[i] = vmath_exp.atan(x[i])
+
+
+def exp_atan(x):
+    e, a = np.empty_like(x), np.empty_like(x)
+    _exp_atan_loop(x, e, a)
+    return e, a
+
+
+@pytest.mark.skipif(np.finfo(np.longdouble).nmant < 63, reason="needs an 80-bit long double")
+def test_exp_within_one_ulp_of_the_exact_value():
+    """10**6 arguments per range (the normal results, |x| <= 2 (the
+    quadrature's), and the subnormal ones) against long double expl."""
+    rng = np.random.default_rng(21)
+    for x in (rng.uniform(-708.0, 709.7, 1_000_000), rng.uniform(-2.0, 2.0, 1_000_000),
+              rng.uniform(vmath_exp.EXP_UNDERFLOW, -708.4, 1_000_000)):
+        e, _ = exp_atan(x)
+        error = ulp_error(e, np.exp(x.astype(np.longdouble)))
+        assert error.max() <= vmath_exp.EXP_ULP, (error.max(), x[np.argmax(error)])
+        assert (e == np.exp(x)).mean() > 0.85  # mostly correctly rounded (numpy/glibc is, to 0.51 ulp)
+
+
+@pytest.mark.skipif(np.finfo(np.longdouble).nmant < 63, reason="needs an 80-bit long double")
+def test_atan_within_one_ulp_of_the_exact_value():
+    """10**6 arguments per range: |x| <= 3 (every reduction interval, the
+    quadrature's slopes), |x| <= 100, and log-spaced 1e-300 .. 1e300."""
+    rng = np.random.default_rng(22)
+    logs = 10.0 ** rng.uniform(-300.0, 300.0, 1_000_000) * rng.choice([-1.0, 1.0], 1_000_000)
+    for x in (rng.uniform(-3.0, 3.0, 1_000_000), rng.uniform(-100.0, 100.0, 1_000_000), logs):
+        _, a = exp_atan(x)
+        error = ulp_error(a, np.arctan(x.astype(np.longdouble)))
+        assert error.max() <= vmath_exp.ATAN_ULP, (error.max(), x[np.argmax(error)])
+        _, minus = exp_atan(-x)
+        assert np.array_equal(minus, -a)  # odd, bit for bit
+
+
+def test_exp_edges():
+    big, tiny = vmath_exp.EXP_OVERFLOW, vmath_exp.EXP_UNDERFLOW
+    x = np.array([0.0, -0.0, big, np.nextafter(big, np.inf), np.inf, 1000.0,
+                  np.nextafter(tiny, 0.0), tiny, np.nextafter(tiny, -np.inf), -np.inf, -1000.0, np.nan])
+    e, _ = exp_atan(x)
+    assert e[0] == 1.0 and e[1] == 1.0
+    assert np.isfinite(e[2]) and e[2] > 1.79e308  # log(DBL_MAX): finite, the largest results
+    assert np.isposinf(e[3:6]).all()
+    assert e[6] == 5e-324  # the smallest subnormal
+    assert (e[7:11] == 0.0).all()
+    assert np.isnan(e[11])
+    with np.errstate(over="ignore"):
+        assert np.array_equal(e[:11], np.exp(x[:11]))
+
+
+def test_atan_edges():
+    x = np.array([0.0, -0.0, 5e-324, -5e-324, 1e-300, 1.0, -1.0, 0.4375, 0.6875, 1.1875, 2.4375,
+                  2.0**66, 1e300, np.inf, -np.inf, np.nan])
+    _, a = exp_atan(x)
+    assert np.array_equal(np.signbit(a[:4]), [False, True, False, True]) and np.array_equal(a[:5], x[:5])
+    assert a[5] == math.pi / 4 and a[6] == -math.pi / 4
+    assert np.array_equal(a[11:15], [math.pi / 2, math.pi / 2, math.pi / 2, -math.pi / 2])
+    assert np.isnan(a[15])
+    assert np.array_equal(a[:15], np.arctan(x[:15]))

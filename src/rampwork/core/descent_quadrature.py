@@ -33,6 +33,18 @@ dip between points (bounded by a quarter of the neighbouring second
 differences, twice a parabola's); otherwise, or where the start does not
 slide towards B, or T reaches t_max, ``valid`` is False and the caller runs
 the ODE kernel for it (whose statuses are the contract).
+
+Vectorised (the loops over points are SIMD loops; no libm call in them):
+a panel's points are stored in level order (each level's new points one
+contiguous block, _slots); the point values do not depend on E, so every
+panel's points up to the first accepted level come in one pass per
+candidate; cos(j theta), sin(j theta) of the modes at every node are one
+table per call (_mode_basis); atan and exp are core.vmath_exp's (<= 1 ulp);
+the integration matrices are stored transposed and padded, so that the
+product runs over the points integrated to; loops index views from 0 (an
+index numba cannot prove non-negative is wrapped around, which keeps a
+loop scalar).  Sums are rounded in the same order as row by row: only
+atan and exp (<= 1 ulp against libm's ~0.5) move results, by ~1e-15.
 """
 
 from __future__ import annotations
@@ -42,8 +54,9 @@ import math
 
 import numpy as np
 
-from .jit import jit
-from .ramps import sine_modes_slope_curvature
+from . import vmath, vmath_exp
+from .jit import fma, jit
+from .ramps import MODES_HEADER, sine_modes_slope_curvature
 
 #: the path's panels (equal lengths in x): each integrates on its own points,
 #: refined on its own, so a difficulty in one panel costs no points elsewhere
@@ -53,6 +66,8 @@ LEVELS = (2, 4, 8, 16, 32, 64)
 LEVEL_POINTS = np.array(LEVELS, dtype=np.int64)
 #: the lowest level a panel may be accepted at (a coarser one can agree with the level below by chance)
 FIRST_ACCEPTED = 3
+#: the lowest level computed: the estimate at FIRST_ACCEPTED reads the changes of the two levels below
+FIRST_COMPUTED = max(0, FIRST_ACCEPTED - 2)
 #: the estimate: the change since the level below times min(1, SAFETY * the ratio of the latest two changes)
 SAFETY = 1.0
 #: the smallest normal term accepted, as a share of g (a graze goes to the kernel)
@@ -63,26 +78,59 @@ ENERGY_MARGIN = 1e-3
 START_MARGIN = 1e-9
 #: the dip between two points: at most this times the larger neighbouring second difference
 DIP_FACTOR = 0.25
+#: the slot of tau = 1 (B's side of each panel; see _slots)
+END_SLOT = 2
+
+
+def _slots() -> np.ndarray:
+    """A panel's points are stored in LEVEL ORDER: level l's n + 1 points are
+    the panel's first n + 1 slots (tau = 0, 1/2, 1, then each level's new
+    points in order of tau), so that each level's new points are one
+    contiguous block (the per-point passes vectorise).  Entry m: the slot of
+    the finest level's m-th point in order of tau."""
+    finest = LEVELS[-1]
+    slot = np.empty(finest + 1, dtype=np.int64)
+    slot[[0, finest // 2, finest]] = 0, 1, END_SLOT  # the first level, n = 2
+    for n in LEVELS[1:]:
+        slot[np.arange(1, n, 2) * (finest // n)] = np.arange(n // 2 + 1, n + 1)  # its new (odd) points
+    return slot
+
+
+#: the slot of each of the finest level's points (in order of tau)
+SLOT = _slots()
+#: the integration matrices' columns are padded with zeros to a multiple of this (no scalar remainder
+#: in the vectorised product; 8 = two 256-bit vectors, LLVM's interleaved vector body)
+PADDING = 8
+
+
+@jit
+def _row_length(n):
+    """The padded length of a column of level n's (n + 1)^2 integration matrix."""
+    return (n + PADDING) // PADDING * PADDING
 
 
 @functools.lru_cache(maxsize=None)
 def node_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(xi / L and dxi/dtau / L at each panel's finest points, PANELS rows of
-    n + 1 flattened; every level's integration matrix (n + 1)^2 on tau in
-    [0, 1], flattened one after another; each level's offset into them).
-    Panel 0 is xi = h tau^2 (h = L / PANELS: the start's 1 / sqrt(E) made
-    smooth), the others xi = h (p + tau).  Row i of a level's matrix
-    integrates the interpolant of values at its points from tau = 0 to its
-    point i; row n holds Clenshaw-Curtis weights."""
+    n + 1 in level order (SLOT), flattened; every level's integration matrix
+    (n + 1)^2 on tau in [0, 1], TRANSPOSED with its rows (the points
+    integrated to) in level order, flattened one after another; each
+    level's offset into them).  Panel 0 is xi = h tau^2 (h = L / PANELS: the
+    start's 1 / sqrt(E) made smooth), the others xi = h (p + tau).  Entry
+    [k, SLOT[i]] of a level's block integrates the interpolant's k-th point
+    (in order of tau) from tau = 0 to its point i; [k, END_SLOT] holds the
+    Clenshaw-Curtis weights."""
     finest = LEVELS[-1]
-    tau = 0.5 * (1.0 - np.cos(np.pi * np.arange(finest + 1) / finest))
-    tau[0], tau[-1] = 0.0, 1.0
+    natural = 0.5 * (1.0 - np.cos(np.pi * np.arange(finest + 1) / finest))
+    natural[0], natural[-1] = 0.0, 1.0
+    tau = np.empty(finest + 1)
+    tau[SLOT] = natural
     h = 1.0 / PANELS
     xi = np.concatenate([h * tau * tau] + [h * (p + tau) for p in range(1, PANELS)])
     jacobian = np.concatenate([2.0 * h * tau] + [np.full(finest + 1, h) for _ in range(1, PANELS)])
     blocks, offsets, offset = [], [], 0
     for n in LEVELS:
-        z = 2.0 * tau[:: finest // n] - 1.0
+        z = 2.0 * natural[:: finest // n] - 1.0
         vandermonde = np.polynomial.chebyshev.chebvander(z, n)
         integrals = np.empty((n + 1, n + 1))
         for k in range(n + 1):
@@ -91,10 +139,87 @@ def node_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
             integrals[:, k] = np.polynomial.chebyshev.chebval(z, np.polynomial.chebyshev.chebint(unit, lbnd=-1.0))
         matrix = 0.5 * integrals @ np.linalg.inv(vandermonde)  # d tau = dz / 2
         matrix[0] = 0.0
-        blocks.append(matrix.ravel())
+        transposed = np.zeros((n + 1, _row_length(n)))
+        transposed[:, SLOT[:: finest // n]] = matrix.T
+        blocks.append(transposed.ravel())
         offsets.append(offset)
-        offset += (n + 1) ** 2
+        offset += transposed.size
     return xi, jacobian, np.concatenate(blocks), np.array(offsets, dtype=np.int64)
+
+
+@jit
+def _mode_basis(shared, x_a, span, xi_unit, basis, scratch):
+    """cos(j theta) and sin(j theta) of each mode j at every node, exactly as
+    core.ramps.sine_modes_slope_curvature forms them (the same sincos and
+    the same recurrence, bit for bit: tests/test_descent_quadrature.py), with
+    its loop over the modes made the OUTER loop so that the loop over the
+    nodes vectorises: ``basis`` holds mode by mode the cosines, then the
+    sines.  They are the same for every candidate of a call."""
+    k = int(shared[0])
+    w = shared[6]
+    size = xi_unit.size
+    two_c, s_prev, s = scratch[:size], scratch[size:2 * size], scratch[2 * size:3 * size]
+    c_prev, c = scratch[3 * size:4 * size], scratch[4 * size:5 * size]
+    for j in range(size):
+        s1, c1 = vmath.sincos(w * ((x_a + span * xi_unit[j]) - shared[1]))
+        two_c[j] = 2.0 * c1
+        s_prev[j] = 0.0
+        s[j] = s1
+        c_prev[j] = 1.0
+        c[j] = c1
+    for mode in range(k):
+        cosines = basis[2 * mode * size:(2 * mode + 1) * size]
+        sines = basis[(2 * mode + 1) * size:(2 * mode + 2) * size]
+        for j in range(size):
+            cosines[j] = c[j]
+            sines[j] = s[j]
+            s_next = fma(two_c[j], s[j], -s_prev[j])
+            c_next = fma(two_c[j], c[j], -c_prev[j])
+            s_prev[j] = s[j]
+            s[j] = s_next
+            c_prev[j] = c[j]
+            c[j] = c_next
+
+
+@jit
+def _panel_points(shared, row, basis, jacobian_unit, first_panel, stop_panel, first, stop, atan_a, two_mu_d,
+                  direction, length, g, mu_k, fp, arc, bend, grow, integrand, slope, curve):
+    """f', sqrt(1 + f'^2), f'' / (1 + f'^2), exp(2 mu theta) and the energy
+    integrand at the slots [first, stop) of the panels first_panel ..
+    stop_panel - 1: the slope and curvature sums of
+    core.ramps.sine_modes_slope_curvature on _mode_basis's table (the same
+    operations, so the same values), atan and exp by core.vmath_exp.
+    Every loop runs over views from 0 (an index numba cannot prove
+    non-negative is wrapped around, and that keeps the loop scalar)."""
+    k = int(shared[0])
+    base = MODES_HEADER + int(row) * k
+    w = shared[6]
+    size = basis.size // (2 * k)
+    count = stop - first
+    for p in range(first_panel, stop_panel):
+        low = p * (size // PANELS) + first
+        high = low + count
+        slope_p, curve_p = slope[low:high], curve[low:high]
+        for j in range(count):
+            slope_p[j] = 0.0  # sum j c_j cos(j theta)
+            curve_p[j] = 0.0  # sum j^2 c_j sin(j theta)
+        for mode in range(k):
+            order = float(mode + 1)
+            coefficient = shared[base + mode] * order
+            cosines = basis[2 * mode * size + low:2 * mode * size + high]
+            sines = basis[(2 * mode + 1) * size + low:(2 * mode + 1) * size + high]
+            for j in range(count):
+                slope_p[j] = fma(coefficient, cosines[j], slope_p[j])
+                curve_p[j] = fma(coefficient * order, sines[j], curve_p[j])
+        fp_p, arc_p, bend_p, grow_p = fp[low:high], arc[low:high], bend[low:high], grow[low:high]
+        integrand_p, jacobian_p = integrand[low:high], jacobian_unit[low:high]
+        for j in range(count):
+            f1 = fma(w, slope_p[j], shared[5])
+            fp_p[j] = f1
+            arc_p[j] = math.sqrt(1.0 + f1 * f1)
+            bend_p[j] = (-(w * w) * curve_p[j]) / (1.0 + f1 * f1)
+            grow_p[j] = vmath_exp.exp(two_mu_d * (vmath_exp.atan(f1) - atan_a))
+            integrand_p[j] = -g * (direction * f1 + mu_k) * grow_p[j] * length * jacobian_p[j]
 
 
 @jit
@@ -119,16 +244,31 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
     from x_a towards x_a + direction * length: ``t_end``, ``work`` (W / m),
     ``energy_end`` (E at B), ``slope_end`` (f' at B), ``estimate`` (relative
     error: each panel's worst of T, W and the energy integral, the largest),
-    ``nodes`` (points used) and ``valid`` (see the module)."""
+    ``nodes`` (points used) and ``valid`` (see the module).  The tables are
+    node_tables()'s (level order)."""
     size = xi_unit.size
     finest = size // PANELS - 1
-    fp = np.empty(size)
-    bend = np.empty(size)  # f'' / (1 + f'^2) = dtheta/dxi
-    grow = np.empty(size)  # exp(2 mu theta)
-    integrand = np.empty(size)
-    energy = np.empty(size)  # at one level's points of a panel, then the accepted level's
+    first_points = LEVEL_POINTS[FIRST_ACCEPTED] + 1  # every panel's points up to the first accepted level
+    padded = size + PADDING  # the per-level passes run over padded lengths (no scalar remainder)
+    fp = np.zeros(padded)
+    bend = np.zeros(padded)  # f'' / (1 + f'^2) = dtheta/dxi
+    grow = np.ones(padded)  # exp(2 mu theta)
+    integrand = np.zeros(padded)
+    energy = np.zeros(padded)  # at one level's points of a panel, then the accepted level's
+    arc = np.zeros(padded)  # sqrt(1 + f'^2)
+    slope = np.zeros(padded)
+    curve = np.zeros(padded)
+    jacobian = np.zeros(padded)  # dxi/dtau
+    for j in range(size):
+        jacobian[j] = length * jacobian_unit[j]
+    basis = np.empty(2 * int(shared[0]) * size)
+    _mode_basis(shared, x_a, direction * length, xi_unit, basis, np.empty(5 * size))
+    total = np.empty(_row_length(finest))  # the energy integral to each point of a panel's level
+    speed_factor = np.empty(_row_length(finest))  # dxi/dtau / sqrt(2 E)
+    power = np.empty(_row_length(finest))  # g + 2 E f'' / (1 + f'^2)
     ratio = np.empty(finest + 1)
     nu = np.empty(finest + 1)
+    two_mu_d = 2.0 * mu_k * direction
     for c in range(rows.size):
         row = float(rows[c])
         valid[c] = False
@@ -139,7 +279,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
         estimate[c] = np.inf
         nodes[c] = 0
         slope_a, _ = sine_modes_slope_curvature(x_a, row, 0.0, 0.0, 0.0, shared)
-        atan_a = math.atan(slope_a)
+        atan_a = vmath_exp.atan(slope_a)
         energy_0 = 0.5 * v0 * v0 * (1.0 + slope_a * slope_a)
         pull = -g * (direction * slope_a + mu_k)  # dE/dxi at the start (no curvature term at E = 0)
         if v0 == 0.0:
@@ -148,6 +288,9 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 continue
         elif v0 * direction < 0.0:
             continue
+        # the point values do not depend on E: every panel's first levels in one pass
+        _panel_points(shared, row, basis, jacobian_unit, 0, PANELS, 0, first_points, atan_a, two_mu_d, direction,
+                      length, g, mu_k, fp, arc, bend, grow, integrand, slope, curve)
         carried = energy_0  # E_0 plus the energy integral up to the panel's start
         t_total = 0.0
         w_total = 0.0
@@ -156,53 +299,52 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
         ok = True
         for p in range(PANELS):
             start = p * (finest + 1)
-            filled = 0  # the stride of the points filled so far (0: none)
             previous_t = previous_w = previous_c = np.nan
             previous_change = 1.0
             accepted = -1
             panel_t = panel_w = panel_c = 0.0
-            for level in range(offsets.size):
+            for level in range(FIRST_COMPUTED, offsets.size):
                 n = LEVEL_POINTS[level]
                 stride = finest // n
-                for i in range(n + 1):
-                    j = start + i * stride
-                    if filled != 0 and (i * stride) % filled == 0:
-                        continue
-                    x = x_a + direction * length * xi_unit[j]
-                    slope, curvature = sine_modes_slope_curvature(x, row, 0.0, 0.0, 0.0, shared)
-                    fp[j] = slope
-                    bend[j] = curvature / (1.0 + slope * slope)
-                    grow[j] = math.exp(2.0 * mu_k * direction * (math.atan(slope) - atan_a))
-                    integrand[j] = -g * (direction * slope + mu_k) * grow[j] * length * jacobian_unit[j]
-                filled = stride
+                if n + 1 > first_points:  # its new points: slots n/2 + 1 .. n
+                    _panel_points(shared, row, basis, jacobian_unit, p, p + 1, n // 2 + 1, n + 1, atan_a,
+                                  two_mu_d, direction, length, g, mu_k, fp, arc, bend, grow, integrand, slope, curve)
                 base = offsets[level]
-                last = base + n * (n + 1)  # the weights' row
+                # the integration matrix times the integrand, by columns (in order of tau: the
+                # sums are rounded in the same order as row by row), vectorised over the rows
+                rows_padded = _row_length(n)
+                for i in range(rows_padded):
+                    total[i] = 0.0
+                for k in range(n + 1):
+                    value = integrand[start + SLOT[k * stride]]
+                    column = matrices[base + k * rows_padded:base + (k + 1) * rows_padded]
+                    for i in range(rows_padded):
+                        total[i] += column[i] * value
+                stop = start + rows_padded  # the slots beyond n: values never read
+                grow_p, energy_p = grow[start:stop], energy[start:stop]
+                bend_p, jacobian_p = bend[start:stop], jacobian[start:stop]
+                for i in range(rows_padded):
+                    e = (carried + total[i]) / grow_p[i]
+                    energy_p[i] = e
+                    speed_factor[i] = jacobian_p[i] / math.sqrt(2.0 * e)
+                    power[i] = g + 2.0 * e * bend_p[i]
+                if p == 0 and energy_0 == 0.0:
+                    # jacobian / sqrt(2 E) -> sqrt(2 h / pull) at the start from rest (slot 0)
+                    speed_factor[0] = math.sqrt(2.0 * length / PANELS / pull)
+                panel_c = total[END_SLOT]
                 panel_t = 0.0
                 panel_w = 0.0
-                for i in range(n + 1):
-                    j = start + i * stride
-                    total = 0.0
-                    for k in range(n + 1):
-                        total += matrices[base + i * (n + 1) + k] * integrand[start + k * stride]
-                    e = (carried + total) / grow[j]
-                    energy[j] = e
-                    if i == n:
-                        panel_c = total
-                    jacobian = length * jacobian_unit[j]
-                    if p == 0 and i == 0 and energy_0 == 0.0:
-                        # jacobian / sqrt(2 E) -> sqrt(2 h / pull) at the start from rest
-                        speed_factor = math.sqrt(2.0 * length / PANELS / pull)
-                    else:
-                        speed_factor = jacobian / math.sqrt(2.0 * e)
-                    weight = matrices[last + i]
-                    panel_t += weight * math.sqrt(1.0 + fp[j] * fp[j]) * speed_factor
-                    panel_w += weight * (g + 2.0 * e * bend[j]) * jacobian
+                for i in range(n + 1):  # in order of tau
+                    slot = SLOT[i * stride]
+                    weight = matrices[base + i * rows_padded + END_SLOT]
+                    panel_t += weight * arc[start + slot] * speed_factor[slot]
+                    panel_w += weight * power[slot] * jacobian[start + slot]
                 if not (math.isfinite(panel_t) and math.isfinite(panel_w) and math.isfinite(panel_c)):
                     # E <= 0 at a point of a level too coarse to see the panel: refine
                     previous_t = previous_w = previous_c = np.nan
                     previous_change = 1.0
                     continue
-                if level == 0 or not math.isfinite(previous_t):
+                if level == FIRST_COMPUTED or not math.isfinite(previous_t):
                     previous_t, previous_w, previous_c = panel_t, panel_w, panel_c
                     continue
                 end_energy = carried + panel_c
@@ -227,7 +369,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
             n = LEVEL_POINTS[accepted]
             stride = finest // n
             for i in range(n + 1):
-                j = start + i * stride
+                j = start + SLOT[i * stride]
                 e = energy[j]
                 if p == 0 and i == 0:
                     ratio[i] = 1.0
@@ -249,7 +391,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
         valid[c] = True
         t_end[c] = t_total
         work[c] = mu_k * w_total
-        energy_end[c] = energy[size - 1]
-        slope_end[c] = fp[size - 1]
+        energy_end[c] = energy[size - (finest + 1) + END_SLOT]
+        slope_end[c] = fp[size - (finest + 1) + END_SLOT]
         estimate[c] = worst
         nodes[c] = used
