@@ -76,7 +76,7 @@ def test_general_equals_specialised_on_the_loop(method, contact):
 #: every other family with the two kinds of method (fixed step, adaptive
 #: pair) and a different mix, and two-sided contact with both drags' mix: a
 #: cover of the no-op gates (each method's stages, the pairs' norm, each
-#: family's frame) at about 26 kernel variants, not the full product's ~200
+#: family's frame) at 24 kernel variants at most, not the full product's ~200
 SLOW_CASES = (
     *((("loop", method, "one_sided", ()) for method in CURVE_STEPPERS)),
     *((("graph_sine", method, "one_sided", ("friction",)) for method in ("rk4", "dopri5"))),
