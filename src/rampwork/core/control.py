@@ -146,7 +146,7 @@ def error_norm2(x, v, w, k, x1, v1, w1, k1, err_x, err_v, err_w, err_k,
 
 
 #: below this rtol DOP853's norm has (x, v) take their own estimates' ratio and
-#: the integrals' (work, curvature integral) squared estimates count
+#: the integrals' (works, curvature integral) squared estimates count
 #: TIGHT_INTEGRALS_WEIGHT times (held to about rtol / 2.8); at and above it,
 #: dop853.f's norm: the loose end's step sequences and the error's
 #: proportionality to rtol (tested down to 1e-10) stay as they were.  Why and
