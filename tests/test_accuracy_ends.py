@@ -283,7 +283,7 @@ TIGHT_SHORT = {
     "stop, W = 0.34 J/kg": (0.33585858585858586, -0.4949494949494948, 0.4903030303030303),
 }
 #: issue 19's target: every W error within 10x the median, which is 0.006 rtol
-#: (1e-12) and 0.008 rtol (1e-13) on those starts (measured: at most 0.057
+#: (1e-12) and 0.008 rtol (1e-13) on those starts (measured: at most 0.053
 #: rtol here, 0.12-0.28 before i19-tight-10)
 TIGHT_SHORT_W_ERROR = 0.1
 
