@@ -7,9 +7,10 @@ The tableau is that of Hairer's ``dop853.f`` (as scipy's
 ``dop853_coefficients`` prints it), stored by row with its zero entries left
 out: each tuple's comment names the stages its entries multiply.  The 13th
 evaluation is at the new state, so it is the next step's first (FSAL).  Error:
-the fifth- and third-order estimates combined as in ``dop853.f``
-(``control.error_norm2_two_estimates``).  Dense output: three more stages and
-the seventh-order interpolant of ``dop853.f`` (exact at both ends).
+the fifth- and third-order estimates combined as in ``dop853.f``, at the tight
+end with (x, v) apart (``control.error_norm2_two_estimates``).  Dense output:
+three more stages and the seventh-order interpolant of ``dop853.f`` (exact at
+both ends).
 """
 
 from .jit import fma, jit
