@@ -203,3 +203,19 @@ def test_lanes_locate_an_event_as_the_scalar_locator_does():
                 frame)
         assert toy_step(p, u, 0.0, 1.0, 1.0, below, *args)[8]
         assert not toy_step(p, u, 0.0, 1.0, 1.0, hi, *args)[8]
+
+
+@pytest.mark.parametrize("name", ["loop", "quarter_pipe", "graph_sine"])
+def test_a_point_anywhere_family_has_its_point_everywhere(name):
+    """The lane kernel evaluates a ``point_anywhere`` family's point at a step's
+    unclamped end (core/curve_vector.py), beyond the curve's ends or NaN: it
+    must return there, finite wherever p is, and X = p on a wrapped ramp."""
+    curve = CURVES[name][0]
+    assert curve.spec.point_anywhere
+    p = np.array([-1e3, -2.0, 1e-300, 7.5, 1e3])
+    values = curve.evaluate(np.append(p, np.nan))
+    assert np.isfinite(values["X"][:-1]).all() and np.isfinite(values["Y"][:-1]).all()
+    if name == "graph_sine":
+        np.testing.assert_array_equal(values["X"][:-1], p)
+    # not the clothoid: its point's panels loop on p
+    assert not Curve.create("clothoid", clothoid_parameter=1.0, length=2.0).spec.point_anywhere

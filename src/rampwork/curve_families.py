@@ -34,7 +34,8 @@ class CurveFamily:
     its position parameter and the checks of its values."""
 
     def __init__(self, name, description, parameters, frame, point, domain, *, side="left",
-                 position="s", check=None, key=None, cacheable=True, joint=None):
+                 position="s", check=None, key=None, cacheable=True, joint=None,
+                 point_anywhere=False):
         self.name = name
         self.description = description
         self.parameters = tuple(parameters)
@@ -47,6 +48,9 @@ class CurveFamily:
         self._joint = joint  # (arrays by name) -> the joint's p (NaN: none), or None
         self.key = key or name
         self.cacheable = cacheable
+        #: the point is loop-free and defined at every p, NaN included, so the
+        #: lane kernel may evaluate it where its frame is (core/curve_vector.py)
+        self.point_anywhere = point_anywhere
         self._evaluator = None
 
     @property
@@ -167,7 +171,7 @@ FAMILIES: dict[str, CurveFamily] = {
          _p("exit_angle", "rad", "angle from the bottom where the arc ends", default=TWO_PI)),
         core_curves.loop_frame, core_curves.loop_point,
         lambda a: (a["radius"] * a["entry_angle"], a["radius"] * a["exit_angle"]),
-        check=_check_loop),
+        check=_check_loop, point_anywhere=True),
     "quarter_pipe": CurveFamily(
         "quarter_pipe", "a flat of length L from the origin, then a quarter circle of radius R "
         "curving up to a vertical tangent (curvature jumps from 0 to 1/R at s = L)",
@@ -176,7 +180,7 @@ FAMILIES: dict[str, CurveFamily] = {
         core_curves.quarter_pipe_frame, core_curves.quarter_pipe_point,
         lambda a: (np.zeros_like(a["radius"] + a["flat_length"]),
                    a["flat_length"] + 0.5 * math.pi * a["radius"]),
-        check=_check_quarter_pipe,
+        check=_check_quarter_pipe, point_anywhere=True,
         joint=lambda a: a["flat_length"] + 0 * a["radius"]),  # at 0 too: a start there
     "brachistochrone": CurveFamily(
         "brachistochrone", "cycloid from its cusp at the origin: X = r (t - sin t), "

@@ -51,7 +51,7 @@ def curve_kernel_for(spec: CurveFamily, method: str, *, one_sided: bool, frictio
         kernel = curve_lanes.build_curve_kernel(
             spec.key, spec.frame, spec.point, method, one_sided=one_sided, friction=friction,
             drag_linear=drag_linear, drag_quadratic=drag_quadratic, joints=joints,
-            cache=spec.cacheable, vector=vector)
+            cache=spec.cacheable, vector=vector, point_anywhere=spec.point_anywhere)
         if not spec.cacheable:
             return kernel
         _KERNELS[key] = kernel

@@ -64,7 +64,7 @@ def _graph_family(ramp: Ramp) -> CurveFamily:
         point = specialise(core_curves.graph_point, f"curve_{key}_point", constants, **options)
         family = CurveFamily(key, f"the ramp family {spec.name!r} as a curve (p = x)",
                              spec.parameters, frame, point, None, position="x", key=key,
-                             cacheable=spec.cacheable)
+                             cacheable=spec.cacheable, point_anywhere=True)  # X = p
         if not spec.cacheable:
             return family
         _GRAPH_FAMILIES[key] = family

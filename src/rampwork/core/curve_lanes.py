@@ -43,7 +43,7 @@ from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
     STATUS, STEPS, T, TRAJ, U, WORK, XNOW, MANY_JOINTS, store_frame)
 from .curve_track import joints_behind
 from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, _stage_from, normal_along_n
-from .curve_vector import BLOCK, _vector_step
+from .curve_vector import BLOCK, BLOCK_FIRST_ORDER, _vector_step
 from .jit import fma, jit, specialise
 from .threads import current_threads, run_items
 
@@ -279,17 +279,18 @@ class CurveKernel:
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
                        drag_quadratic: bool = False, joints: int = 0, cache: bool = True,
-                       vector: bool = True) -> CurveKernel:
+                       vector: bool = True, point_anywhere: bool = False) -> CurveKernel:
     """The :class:`CurveKernel` of one curve family (``key`` names it uniquely;
     ``frame``, ``point`` its jitted functions) and ``method`` (any
     ``CURVE_STEPPERS`` entry), compiled with only the effects asked for.
     ``vector=False``: the scalar reference (every step through ``_iterate``);
     ``joints``: the curve's joints (0 to 2; with one, the second's logic is
     compiled out, with none all of it; ``MANY_JOINTS``: any number, a
-    sorted run of ``shared`` per trajectory)."""
+    sorted run of ``shared`` per trajectory); ``point_anywhere``: the
+    family's (curve_families.CurveFamily.point_anywhere)."""
     if method not in CURVE_STEPPERS:
         raise ValueError(f"unknown curve method {method!r}; allowed: {', '.join(CURVE_STEPPERS)}")
-    step, _, adaptive, control = CURVE_STEPPERS[method]
+    step, order, adaptive, control = CURVE_STEPPERS[method]
     flags = "".join(suffix for on, suffix in (
         (one_sided, "_one"), (friction, "_friction"), (drag_linear, "_dragb"),
         (drag_quadratic, "_dragc"), (joints == 1, "_joints"), (joints == 2, "_joints2"),
@@ -299,10 +300,11 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     alpha, beta, shrink = control if adaptive else (0.0, 0.0, 0.0)
     constants = {"curve_frame": frame, "curve_point": point, "ONE_SIDED": one_sided,
                  "ADAPTIVE": adaptive, "LANE_EVENTS": adaptive, "JOINTS": int(joints),
-                 "FRICTION": friction,
+                 "FRICTION": friction, "POINT_ANYWHERE": point_anywhere,
                  "DRAG_LINEAR": drag_linear, "DRAG_QUADRATIC": drag_quadratic,
                  "DRAG": drag_linear or drag_quadratic, "VECTOR": vector, "PI_ALPHA": alpha,
-                 "PI_BETA": beta, "REJECT_EXPONENT": shrink}
+                 "PI_BETA": beta, "REJECT_EXPONENT": shrink,
+                 "BLOCK": BLOCK_FIRST_ORDER if order == 1 else BLOCK}
     options = {} if cache else {"cache": False}
 
     def build(template, suffix, **more):

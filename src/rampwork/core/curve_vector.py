@@ -38,6 +38,9 @@ from .curve_track import branch_near
 # bound per scene by curve_lanes.build_curve_kernel (compile-time constants)
 curve_frame = curve_point = try_step = accepted_factor = rejected_factor = lane_trial = None
 ADAPTIVE = DRAG = False
+#: the family's point is loop-free and defined at every p, NaN included
+#: (curve_families.CurveFamily.point_anywhere)
+POINT_ANYWHERE = False
 JOINTS = 0  # the curve's joints (0, 1, 2 or MANY_JOINTS)
 #: events located in the lanes (curve_events.py): each trial step a step of
 #: the vector loop, the scalar pass committing the located step.  On for the
@@ -45,8 +48,14 @@ JOINTS = 0  # the curve's joints (0, 1, 2 or MANY_JOINTS)
 #: (benchmarks/README.md, curves.py, i20-speed-8 and i20-speed-9)
 LANE_EVENTS = False
 #: lanes per vector loop: a constant trip count, so that LLVM proves the
-#: fields' accesses disjoint (fields lie LANES apart) and vectorises
+#: fields' accesses disjoint (fields lie LANES apart) and vectorises; bound
+#: per scene by curve_lanes.build_curve_kernel, this or BLOCK_FIRST_ORDER
 BLOCK = 16
+#: BLOCK for the first-order methods: one AVX-512 vector; Euler's step then
+#: fits the 32 vector registers, where two interleaved vectors (16) spilled
+#: and ran 1.10-1.15x slower (RK4: 8 ran 0.75-1.06x of 16; benchmarks/README.md,
+#: curves.py, i20-speed-10)
+BLOCK_FIRST_ORDER = 8
 
 
 def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
@@ -96,7 +105,7 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
             frame = curve_frame(p, s0, s1, s2, s3, shared)
         else:
             frame = (sin_now, cos_now, kappa_now, dp_ds_now)
-        event = lanes[EVENT * LANES + i] != 0.0  # (never without LANE_EVENTS)
+        event = (lanes[EVENT * LANES + i] != 0.0) if LANE_EVENTS else False  # (never set without)
         locating = free & event
         if LANE_EVENTS:  # a locating lane's step: its bracket's next trial
             step_size = lane_trial(lanes, i, locating, step_size, p, d, sn, p_lo, p_hi, joint)
@@ -104,14 +113,24 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
             p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol,
             atol, frame)
         sin1, cos1, kappa1, dp_ds1 = frame1
-        # X at the step's end, as curve_kernel._x_travelled takes it (a NaN end,
-        # never committed, is evaluated at p_lo: a family's point may loop on it)
-        p_end = min(max(p1, p_lo), p_hi)
-        p_end = p_end if p_end == p_end else p_lo
-        x1, _ = curve_point(p_end, s0, s1, s2, s3, shared)
+        # X at the step's end, as curve_kernel._x_travelled takes it: a committed
+        # step's p1 lies within the ends, so where the family's point is safe at
+        # any p (POINT_ANYWHERE) it is evaluated at p1, the frame's own argument,
+        # and the compiler shares their work (the loop's p / R and its sincos);
+        # otherwise a NaN end, never committed, is evaluated at p_lo (a family's
+        # point may loop on it)
+        if POINT_ANYWHERE:
+            x1, _ = curve_point(p1, s0, s1, s2, s3, shared)
+        else:
+            p_end = min(max(p1, p_lo), p_hi)
+            p_end = p_end if p_end == p_end else p_lo
+            x1, _ = curve_point(p_end, s0, s1, s2, s3, shared)
         x_now = lanes[XNOW * LANES + i]
-        finite = (math.isfinite(p1) & math.isfinite(u1) & math.isfinite(dw) & (nu1 == nu1)
-                  & math.isfinite(dk))
+        # finite: one sum for four isfinite tests (inf or NaN anywhere makes it
+        # so; an overflow of finite terms only sends the step to the scalar
+        # code, which takes it the same); nu may be +-inf at a cusp, not NaN
+        total = (p1 + u1) + (dw + dk)
+        finite = (total - total == 0.0) & (nu1 == nu1)
         attempt = free & (not event) & clean & (t < t_max)
         # a rough step (a dip of nu inside it) goes to the scalar code, as there
         fast = (attempt & finite & (not (cos_now * cos1 < 0.0))
