@@ -22,17 +22,22 @@ until its estimate meets rtol relative for its share of T, of W and of the
 energy integral: the change since the level below, times the ratio of the
 last two changes where that is below 1 (the change bounds the coarser
 level's error; a geometric rate makes the accepted one's smaller by that
-ratio).  Why panels: the arc length sqrt(1 + f'^2) and atan f' have
-branch points where f' = +-i, close to the real axis for steep, wavy
-slopes; a global rule needs 128-256 points for every candidate, panels
+ratio), and only once the change between the two levels below is at most
+TRUSTED_CHANGE (before, two levels can agree by chance: near a stop, errors
+reached 59x the rtol on a benchmark population).  Why panels: the arc
+length sqrt(1 + f'^2) and atan f' have branch points where f' = +-i,
+close to the real axis for steep, wavy slopes; a global rule needs 128-256 points for every candidate, panels
 refine only where they sit.
 
 A candidate is *valid* only where the estimate meets rtol and, on the
 accepted level's points, E > 0 and n > 0 with a margin that also covers a
 dip between points (bounded by a quarter of the neighbouring second
-differences, twice a parabola's); otherwise, or where the start does not
-slide towards B, or T reaches t_max, ``valid`` is False and the caller runs
-the ODE kernel for it (whose statuses are the contract).
+differences, twice a parabola's); a panel whose points keep the margins
+but whose bound between them fails is refined (closer points bound it
+closer), one with a point within a margin is not; otherwise, or where
+the start does not slide towards B, or T reaches t_max, ``valid`` is
+False and the caller runs the ODE kernel for it (whose statuses are the
+contract).
 
 Vectorised (the loops over points are SIMD loops; no libm call in them):
 a panel's points are stored in level order (each level's new points one
@@ -70,6 +75,9 @@ FIRST_ACCEPTED = 3
 FIRST_COMPUTED = max(0, FIRST_ACCEPTED - 2)
 #: the estimate: the change since the level below times min(1, SAFETY * the ratio of the latest two changes)
 SAFETY = 1.0
+#: the largest change between the two levels below the accepted one: a larger one says the panel's
+#: levels are not yet converging, where the next two may agree by chance (a near-stop's 1 / sqrt(E))
+TRUSTED_CHANGE = 1e-3
 #: the smallest normal term accepted, as a share of g (a graze goes to the kernel)
 NU_MARGIN = 1e-2
 #: the smallest E accepted, as a share of the start's scale E_0 + |dE/dxi(A)| xi
@@ -236,6 +244,38 @@ def _dip_bound(values, first, n, margin):
     return True
 
 
+#: _contact_margins' verdicts: every margin kept; a point itself within one; only the bound between points
+MARGINS_KEPT, MARGINS_BROKEN, MARGINS_BETWEEN = 0, 1, 2
+
+
+@jit
+def _contact_margins(energy, bend, xi_unit, n, first_panel, energy_0, pull_length, g, ratio, nu):
+    """Whether E > 0 and n > 0 hold on a panel's level-n points (the panel's
+    views, level order) with the margins, between the points too (_dip_bound):
+    MARGINS_KEPT; MARGINS_BROKEN where a point itself is within a margin (no
+    finer level lifts it: the kernel's case); MARGINS_BETWEEN where only the
+    bound between points fails (a finer level's closer points may prove it).
+    E is measured against the start's scale E_0 + |dE/dxi(A)| xi."""
+    finest = xi_unit.size - 1
+    stride = finest // n
+    broken = False
+    for i in range(n + 1):
+        j = SLOT[i * stride]
+        e = energy[j]
+        if first_panel and i == 0:
+            ratio[i] = 1.0
+        else:
+            ratio[i] = e / (energy_0 + pull_length * xi_unit[j])
+            broken = broken or not ratio[i] > ENERGY_MARGIN
+        nu[i] = 1.0 + 2.0 * e * bend[j] / g
+        broken = broken or not nu[i] > NU_MARGIN
+    if broken:
+        return MARGINS_BROKEN
+    if _dip_bound(ratio, 0, n, ENERGY_MARGIN) and _dip_bound(nu, 0, n, NU_MARGIN):
+        return MARGINS_KEPT
+    return MARGINS_BETWEEN
+
+
 @jit
 def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, t_max, rtol,
                        xi_unit, jacobian_unit, matrices, offsets, t_end, work, energy_end, slope_end,
@@ -355,29 +395,21 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 # the change since the level below bounds that level's error; with a
                 # geometric rate, the accepted level's is smaller by the latest ratio
                 error = change * min(1.0, SAFETY * change / previous_change) if previous_change > 0.0 else change
-                if error <= rtol and level >= FIRST_ACCEPTED:
-                    accepted = level
-                    worst = max(worst, error)
-                    used += n
-                    break
+                if error <= rtol and level >= FIRST_ACCEPTED and previous_change <= TRUSTED_CHANGE:
+                    margins = _contact_margins(energy[start:start + finest + 1], bend[start:start + finest + 1],
+                                               xi_unit[start:start + finest + 1], n, p == 0, energy_0,
+                                               abs(pull) * length, g, ratio, nu)
+                    if margins == MARGINS_KEPT:
+                        accepted = level
+                        worst = max(worst, error)
+                        used += n
+                        break
+                    if margins == MARGINS_BROKEN:
+                        break  # a point itself within a margin: the kernel's case (accepted stays -1)
+                    # only the bound between points fails: the next level's points bound it closer
                 previous_t, previous_w, previous_c = panel_t, panel_w, panel_c
                 previous_change = change
             if accepted < 0:
-                ok = False
-                break
-            # E > 0 and n > 0 between the points too, with margins
-            n = LEVEL_POINTS[accepted]
-            stride = finest // n
-            for i in range(n + 1):
-                j = start + SLOT[i * stride]
-                e = energy[j]
-                if p == 0 and i == 0:
-                    ratio[i] = 1.0
-                else:
-                    ratio[i] = e / (energy_0 + abs(pull) * length * xi_unit[j])
-                    ok = ok and e > 0.0
-                nu[i] = 1.0 + 2.0 * e * bend[j] / g
-            if not (ok and _dip_bound(ratio, 0, n, ENERGY_MARGIN) and _dip_bound(nu, 0, n, NU_MARGIN)):
                 ok = False
                 break
             carried += panel_c
