@@ -176,7 +176,7 @@ def test_the_contact_margins_verdicts():
     xi = np.empty(finest + 1)
     xi[dq.SLOT] = 1.0 + 0.5 * (1.0 - np.cos(np.pi * np.arange(finest + 1) / finest))  # a panel past the first
     energy = np.ones(finest + 1)
-    scratch = np.empty(finest + 1), np.empty(finest + 1)
+    scratch = np.empty(finest + 1), np.empty(finest + 1), np.empty(finest + 1)
 
     def verdict(bend, n=16):  # nu = 1 + 2 E bend / g with E = 1
         return dq._contact_margins(energy, bend, xi, n, False, 0.0, 1.0, G, *scratch)

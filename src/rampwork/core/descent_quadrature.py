@@ -234,17 +234,21 @@ def _panel_points(shared, row, basis, jacobian_unit, first_panel, stop_panel, fi
 
 
 @jit
-def _dip_bound(values, first, n, margin):
-    """Whether values[first .. first + n] (equally spaced in the Lobatto
-    angle) stay above ``margin`` between the points too: each interval's
-    smaller end less DIP_FACTOR times the larger second difference at its ends."""
-    for i in range(first, first + n):
-        low = min(values[i], values[i + 1])
-        left = values[i - 1] - 2.0 * values[i] + values[i + 1] if i > first else 0.0
-        right = values[i] - 2.0 * values[i + 1] + values[i + 2] if i + 1 < first + n else 0.0
-        if not low - DIP_FACTOR * max(abs(left), abs(right)) > margin:
-            return False
-    return True
+def _dip_bound(values, n, margin, spread):
+    """Whether values[0 .. n] (equally spaced in the Lobatto angle) stay above
+    ``margin`` between the points too: each interval's smaller end less
+    DIP_FACTOR times the larger |second difference| at its ends (0 at the
+    path's ends), into ``spread``.  Branch-free, so that its loops vectorise."""
+    spread[0] = 0.0
+    spread[n] = 0.0
+    inner, before, middle, after = spread[1:n], values[0:n - 1], values[1:n], values[2:n + 1]
+    for i in range(n - 1):
+        inner[i] = abs(before[i] - 2.0 * middle[i] + after[i])
+    low, high, spread_low, spread_high = values[0:n], values[1:n + 1], spread[0:n], spread[1:n + 1]
+    kept = True
+    for i in range(n):
+        kept &= min(low[i], high[i]) - DIP_FACTOR * max(spread_low[i], spread_high[i]) > margin
+    return kept
 
 
 #: _contact_margins' verdicts: every margin kept; a point itself within one; only the bound between points
@@ -252,29 +256,29 @@ MARGINS_KEPT, MARGINS_BROKEN, MARGINS_BETWEEN = 0, 1, 2
 
 
 @jit
-def _contact_margins(energy, bend, xi_unit, n, first_panel, energy_0, pull_length, g, ratio, nu):
+def _contact_margins(energy, bend, xi_unit, n, first_panel, energy_0, pull_length, g, ratio, nu, spread):
     """Whether E > 0 and n > 0 hold on a panel's level-n points (the panel's
     views, level order) with the margins, between the points too (_dip_bound):
     MARGINS_KEPT; MARGINS_BROKEN where a point itself is within a margin (no
     finer level lifts it: the kernel's case); MARGINS_BETWEEN where only the
     bound between points fails (a finer level's closer points may prove it).
-    E is measured against the start's scale E_0 + |dE/dxi(A)| xi."""
+    E is measured against the start's scale E_0 + |dE/dxi(A)| xi (at A from
+    rest, 0 / 0: set to 1)."""
     finest = xi_unit.size - 1
     stride = finest // n
-    broken = False
-    for i in range(n + 1):
+    for i in range(n + 1):  # in order of tau
         j = SLOT[i * stride]
         e = energy[j]
-        if first_panel and i == 0:
-            ratio[i] = 1.0
-        else:
-            ratio[i] = e / (energy_0 + pull_length * xi_unit[j])
-            broken = broken or not ratio[i] > ENERGY_MARGIN
+        ratio[i] = e / (energy_0 + pull_length * xi_unit[j])
         nu[i] = 1.0 + 2.0 * e * bend[j] / g
-        broken = broken or not nu[i] > NU_MARGIN
-    if broken:
+    if first_panel:
+        ratio[0] = 1.0
+    kept = True
+    for i in range(n + 1):
+        kept &= (ratio[i] > ENERGY_MARGIN) & (nu[i] > NU_MARGIN)
+    if not kept:
         return MARGINS_BROKEN
-    if _dip_bound(ratio, 0, n, ENERGY_MARGIN) and _dip_bound(nu, 0, n, NU_MARGIN):
+    if _dip_bound(ratio, n, ENERGY_MARGIN, spread) and _dip_bound(nu, n, NU_MARGIN, spread):
         return MARGINS_KEPT
     return MARGINS_BETWEEN
 
@@ -311,6 +315,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
     power = np.empty(_row_length(finest))  # g + 2 E f'' / (1 + f'^2)
     ratio = np.empty(finest + 1)
     nu = np.empty(finest + 1)
+    spread = np.empty(finest + 1)  # _dip_bound's scratch
     two_mu_d = 2.0 * mu_k * direction
     trusted_change = min(TRUSTED_CHANGE_MOST, max(TRUSTED_CHANGE_LEAST, TRUSTED_CHANGE_SCALE * math.sqrt(rtol)))
     for c in range(rows.size):
@@ -402,7 +407,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 if error <= rtol and level >= FIRST_ACCEPTED and previous_change <= trusted_change:
                     margins = _contact_margins(energy[start:start + finest + 1], bend[start:start + finest + 1],
                                                xi_unit[start:start + finest + 1], n, p == 0, energy_0,
-                                               abs(pull) * length, g, ratio, nu)
+                                               abs(pull) * length, g, ratio, nu, spread)
                     if margins == MARGINS_KEPT:
                         accepted = level
                         worst = max(worst, error)
