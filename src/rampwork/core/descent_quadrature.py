@@ -284,6 +284,33 @@ def _contact_margins(energy, bend, xi_unit, n, first_panel, energy_0, pull_lengt
 
 
 @jit
+def _integrate(matrix, integrand, n, stride, rows, total):
+    """``total`` (``rows``, padded) = a level's transposed integration matrix
+    times the integrand at its n + 1 points (a panel's views, level order):
+    by columns in order of tau, four at a time, so that each row's sum stays
+    in a register for four columns (a column at a time, it went through
+    memory: a load, an add and a store a column) and is rounded in the same
+    order as one column at a time."""
+    for i in range(rows):
+        total[i] = 0.0
+    k = 0
+    while k + 4 <= n + 1:
+        v0, v1 = integrand[SLOT[k * stride]], integrand[SLOT[(k + 1) * stride]]
+        v2, v3 = integrand[SLOT[(k + 2) * stride]], integrand[SLOT[(k + 3) * stride]]
+        c0, c1 = matrix[k * rows:(k + 1) * rows], matrix[(k + 1) * rows:(k + 2) * rows]
+        c2, c3 = matrix[(k + 2) * rows:(k + 3) * rows], matrix[(k + 3) * rows:(k + 4) * rows]
+        for i in range(rows):
+            total[i] = (((total[i] + c0[i] * v0) + c1[i] * v1) + c2[i] * v2) + c3[i] * v3
+        k += 4
+    while k <= n:
+        value = integrand[SLOT[k * stride]]
+        column = matrix[k * rows:(k + 1) * rows]
+        for i in range(rows):
+            total[i] += column[i] * value
+        k += 1
+
+
+@jit
 def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, t_max, rtol,
                        xi_unit, jacobian_unit, matrices, offsets, t_end, work, energy_end, slope_end,
                        estimate, nodes, valid):
@@ -362,13 +389,8 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 # the integration matrix times the integrand, by columns (in order of tau: the
                 # sums are rounded in the same order as row by row), vectorised over the rows
                 rows_padded = _row_length(n)
-                for i in range(rows_padded):
-                    total[i] = 0.0
-                for k in range(n + 1):
-                    value = integrand[start + SLOT[k * stride]]
-                    column = matrices[base + k * rows_padded:base + (k + 1) * rows_padded]
-                    for i in range(rows_padded):
-                        total[i] += column[i] * value
+                _integrate(matrices[base:base + (n + 1) * rows_padded], integrand[start:start + finest + 1], n,
+                           stride, rows_padded, total)
                 stop = start + rows_padded  # the slots beyond n: values never read
                 grow_p, energy_p = grow[start:stop], energy[start:stop]
                 bend_p, jacobian_p = bend[start:stop], jacobian[start:stop]
