@@ -209,6 +209,7 @@ class ChordModes:
         the run's attributes: by quadrature where valid, by the kernel (one
         call over the rest) elsewhere."""
         from .core import descent_quadrature as quadrature
+        from .core.descent_nodes import node_tables
         from .core.threads import run_items, using_threads
         from .runner import run_scene, thread_count
         from .schema import global_attrs
@@ -223,7 +224,7 @@ class ChordModes:
         size = table.shape[0]
         started = time.perf_counter()
         compiled = bool(quadrature.descent_quadrature.signatures)
-        xi, jacobian, matrices, offsets = quadrature.node_tables()
+        xi, jacobian, matrices, offsets = node_tables()
         lo, hi = self.domain
         direction = 1.0 if self.start[0] < self.end[0] else -1.0
         rtol = scene.integrator.rtol
