@@ -34,7 +34,7 @@ from .core.status import EXITED, LIFTED_OFF
 from .errors import ConfigError
 from .ramps import MAX_MODES, Ramp
 from .scene import Friction, Integrator, Scene, Sweep
-from .schema import spec_attrs
+from .schema import output_attrs, spec_attrs
 from .schema import OPTIMISE_OUTPUTS
 
 __all__ = ["ChordModes", "EVALUATORS", "SHAPE_OUTPUTS"]
@@ -47,6 +47,8 @@ ARRIVAL_TOLERANCE = 1e-9
 #: candidate; ``quadrature``: the descent by quadrature (core/descent_quadrature.py)
 #: where it is valid, the ODE kernel for the rest in the same call
 EVALUATORS = ("kernel", "quadrature")
+#: the kernel run's outputs that ``evaluate`` reads
+KERNEL_READ = ("status", "t_end", "x_end", "v_end", "W_friction", "W_excess", "x_lift_off")
 #: candidates per work item of the quadrature (items spread over threads)
 QUADRATURE_TILE = 64
 
@@ -168,46 +170,49 @@ class ChordModes:
         rows = np.arange(table.shape[0], dtype=np.float64)
         ramp_scene = scene.replace(ramp=self.ramp(table), x0=self.start[0], record=type(scene.record)())
         if evaluator == "quadrature":
-            run = self._quadrature(ramp_scene, table, threads)
+            outputs, run_attrs = self._quadrature(ramp_scene, table, threads)
         else:
             # the scene file is not stored: the Dataset keeps the attributes
             # below and the table itself, and writing the table as text cost a
             # fifth of the call at rtol 1e-6
             run = run_scene(ramp_scene, Sweep.cases(row=rows), threads=threads, store_scene=False)
+            outputs = {name: run[name].values for name in KERNEL_READ}
+            outputs["speed_end"] = self._speed(table, outputs["x_end"], outputs["v_end"])
+            run_attrs = run.attrs
         lo, hi = self.domain
         length = hi - lo
-        x_end = run["x_end"].values
-        status = run["status"].values
+        x_end = outputs["x_end"]
+        status = outputs["status"]
         arrived = (status == EXITED) & (np.abs(x_end - self.end[0]) <= ARRIVAL_TOLERANCE * length)
-        stayed_on = (status != LIFTED_OFF) & ~np.isfinite(run["x_lift_off"].values)
+        stayed_on = (status != LIFTED_OFF) & ~np.isfinite(outputs["x_lift_off"])
         inside = self.inside(table)
         # the share of the way from A to B not covered (0 where arrived)
         shortfall = np.where(arrived, 0.0, np.clip(np.abs(self.end[0] - np.nan_to_num(x_end, nan=self.start[0]))
                                                    / length, 0.0, 1.0))
-        _, slope, _ = self.profile(table, x_end)
-        speed_end = np.abs(run["v_end"].values) * np.sqrt(1.0 + slope * slope)
         candidate = np.arange(table.shape[0])
-        data = {name: ("candidate", run[name].values, dict(run[name].attrs))
+        data = {name: ("candidate", outputs[name], output_attrs(name))
                 for name in ("status", "t_end", "x_end", "W_friction", "W_excess")}
-        for name, values in (("speed_end", speed_end), ("arrived", arrived), ("stayed_on", stayed_on),
+        for name, values in (("speed_end", outputs["speed_end"]), ("arrived", arrived), ("stayed_on", stayed_on),
                              ("inside", inside), ("admissible", inside & arrived & stayed_on),
                              ("shortfall", shortfall)):
             data[name] = ("candidate", values, spec_attrs(OPTIMISE_OUTPUTS[name]))
         data["coefficients"] = (("candidate", "parameter"), table, spec_attrs(OPTIMISE_OUTPUTS["coefficients"]))
-        attrs = {key: run.attrs[key] for key in ("Conventions", "source", "history", "integrator_method",
+        attrs = {key: run_attrs[key] for key in ("Conventions", "source", "history", "integrator_method",
                                                  "compile_time_s", "run_time_s", "evaluator",
-                                                 "quadrature_share", "quadrature_nodes_mean") if key in run.attrs}
+                                                 "quadrature_share", "quadrature_nodes_mean") if key in run_attrs}
         attrs["title"] = f"rampwork shape evaluation: {self.describe()}"
         attrs["shape"] = self.describe()
         return xr.Dataset(data, coords={"candidate": candidate, "parameter": list(self.names)}, attrs=attrs)
 
-    def _quadrature(self, scene: Scene, table: np.ndarray, threads) -> xr.Dataset:
-        """The kernel run's outputs that ``evaluate`` reads, by quadrature
-        where valid and by the kernel (one call over the rest) elsewhere."""
+    def _quadrature(self, scene: Scene, table: np.ndarray, threads) -> tuple[dict, dict]:
+        """The outputs that ``evaluate`` reads (KERNEL_READ and speed_end) and
+        the run's attributes: by quadrature where valid, by the kernel (one
+        call over the rest) elsewhere."""
         from .core import descent_quadrature as quadrature
+        from .core.descent_nodes import node_tables
         from .core.threads import run_items, using_threads
         from .runner import run_scene, thread_count
-        from .schema import global_attrs, output_attrs
+        from .schema import global_attrs
 
         if scene.drag.linear != 0.0 or scene.drag.quadratic != 0.0:
             raise ConfigError("evaluator", "'quadrature' needs a drag-free scene (its energy equation is "
@@ -219,7 +224,7 @@ class ChordModes:
         size = table.shape[0]
         started = time.perf_counter()
         compiled = bool(quadrature.descent_quadrature.signatures)
-        xi, jacobian, matrices, offsets = quadrature.node_tables()
+        xi, jacobian, matrices, offsets = node_tables()
         lo, hi = self.domain
         direction = 1.0 if self.start[0] < self.end[0] else -1.0
         rtol = scene.integrator.rtol
@@ -246,18 +251,18 @@ class ChordModes:
         x_end = np.full(size, self.end[0])
         x_lift_off = np.full(size, np.nan)
         v_end = direction * np.sqrt(2.0 * energy_end / (1.0 + slope_end * slope_end))
+        speed_end = np.sqrt(2.0 * energy_end)  # E = v^2 (1 + f'^2) / 2
         w_friction = scene.m * work
         w_excess = w_friction - scene.friction.mu_k * scene.m * scene.g * (hi - lo)
+        outputs = dict(zip(KERNEL_READ, (status, t_end, x_end, v_end, w_friction, w_excess, x_lift_off)))
         rest = np.flatnonzero(~valid)
         if rest.size:
             run = run_scene(scene, Sweep.cases(row=rest.astype(np.float64)), threads=threads, store_scene=False)
             compile_s += float(run.attrs.get("compile_time_s", 0.0))
-            for name, values in (("status", status), ("t_end", t_end), ("x_end", x_end), ("v_end", v_end),
-                                 ("W_friction", w_friction), ("W_excess", w_excess), ("x_lift_off", x_lift_off)):
+            for name, values in outputs.items():
                 values[rest] = run[name].values
-        names = ("status", "t_end", "x_end", "v_end", "W_friction", "W_excess", "x_lift_off")
-        data = {name: ("candidate", values, output_attrs(name)) for name, values in
-                zip(names, (status, t_end, x_end, v_end, w_friction, w_excess, x_lift_off))}
+            speed_end[rest] = self._speed(table[rest], x_end[rest], v_end[rest])
+        outputs["speed_end"] = speed_end
         attrs = global_attrs(scene.title, "", f"rampwork.ChordModes.evaluate: {size} candidates, "
                              f"{size - rest.size} by quadrature, {rest.size} by {scene.integrator.describe()}",
                              {"integrator_method": scene.integrator.method, "evaluator": "quadrature",
@@ -265,7 +270,12 @@ class ChordModes:
                               "quadrature_nodes_mean": float(nodes[valid].mean()) if rest.size < size else 0.0,
                               "compile_time_s": compile_s,
                               "run_time_s": time.perf_counter() - started - compile_s})
-        return xr.Dataset(data, attrs=attrs)
+        return outputs, attrs
+
+    def _speed(self, table, x_end, v_end) -> np.ndarray:
+        """The speed along the ramp at x_end of each row of ``table`` from the kernel's v_end = dx/dt."""
+        _, slope, _ = self.profile(table, x_end)
+        return np.abs(v_end) * np.sqrt(1.0 + slope * slope)
 
     # -- the shapes themselves ------------------------------------------------
 

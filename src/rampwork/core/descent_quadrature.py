@@ -22,26 +22,31 @@ until its estimate meets rtol relative for its share of T, of W and of the
 energy integral: the change since the level below, times the ratio of the
 last two changes where that is below 1 (the change bounds the coarser
 level's error; a geometric rate makes the accepted one's smaller by that
-ratio).  Why panels: the arc length sqrt(1 + f'^2) and atan f' have
-branch points where f' = +-i, close to the real axis for steep, wavy
-slopes; a global rule needs 128-256 points for every candidate, panels
+ratio), and only once the change between the two levels below is at most
+TRUSTED_CHANGE_* (before, two levels can agree by chance: near a stop, errors
+reached 59x the rtol on a benchmark population).  Why panels: the arc
+length sqrt(1 + f'^2) and atan f' have branch points where f' = +-i,
+close to the real axis for steep, wavy slopes; a global rule needs 128-256 points for every candidate, panels
 refine only where they sit.
 
 A candidate is *valid* only where the estimate meets rtol and, on the
 accepted level's points, E > 0 and n > 0 with a margin that also covers a
 dip between points (bounded by a quarter of the neighbouring second
-differences, twice a parabola's); otherwise, or where the start does not
-slide towards B, or T reaches t_max, ``valid`` is False and the caller runs
-the ODE kernel for it (whose statuses are the contract).
+differences, twice a parabola's); a panel whose points keep the margins
+but whose bound between them fails is refined (closer points bound it
+closer), one with a point within a margin is not; otherwise, or where
+the start does not slide towards B, or T reaches t_max, ``valid`` is
+False and the caller runs the ODE kernel for it (whose statuses are the
+contract).
 
 Vectorised (the loops over points are SIMD loops; no libm call in them):
 a panel's points are stored in level order (each level's new points one
-contiguous block, _slots); the point values do not depend on E, so every
+contiguous block: core/descent_nodes.py); the point values do not depend on E, so every
 panel's points up to the first accepted level come in one pass per
 candidate; cos(j theta), sin(j theta) of the modes at every node are one
 table per call (_mode_basis); atan and exp are core.vmath_exp's (<= 1 ulp);
-the integration matrices are stored transposed and padded, so that the
-product runs over the points integrated to; loops index views from 0 (an
+the integration matrices are descent_nodes' (transposed and padded, their
+product four columns at a time, _integrate); loops index views from 0 (an
 index numba cannot prove non-negative is wrapped around, which keeps a
 loop scalar).  Sums are rounded in the same order as row by row: only
 atan and exp (<= 1 ulp against libm's ~0.5) move results, by ~1e-15.
@@ -49,27 +54,27 @@ atan and exp (<= 1 ulp against libm's ~0.5) move results, by ~1e-15.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
 from . import vmath, vmath_exp
+from .descent_nodes import END_SLOT, LEVEL_POINTS, PADDING, PANELS, SLOT, _integrate, _row_length
 from .jit import fma, jit
 from .ramps import MODES_HEADER, sine_modes_slope_curvature
 
-#: the path's panels (equal lengths in x): each integrates on its own points,
-#: refined on its own, so a difficulty in one panel costs no points elsewhere
-PANELS = 8
-#: the points per panel n of the levels (Chebyshev-Lobatto: n + 1, each level's a subset of the next)
-LEVELS = (2, 4, 8, 16, 32, 64)
-LEVEL_POINTS = np.array(LEVELS, dtype=np.int64)
 #: the lowest level a panel may be accepted at (a coarser one can agree with the level below by chance)
 FIRST_ACCEPTED = 3
 #: the lowest level computed: the estimate at FIRST_ACCEPTED reads the changes of the two levels below
 FIRST_COMPUTED = max(0, FIRST_ACCEPTED - 2)
 #: the estimate: the change since the level below times min(1, SAFETY * the ratio of the latest two changes)
 SAFETY = 1.0
+#: the largest change between the two levels below the accepted one, TRUSTED_CHANGE_SCALE sqrt(rtol)
+#: within [TRUSTED_CHANGE_LEAST, TRUSTED_CHANGE_MOST]: a larger one says the panel's levels are not yet
+#: converging, and the next two may agree by chance (a near-stop's 1 / sqrt(E)).  On the benchmark's 2048
+#: candidates every error of t_end and W stays below 0.51 rtol (rtol 1e-5 .. 1e-10); 1e-2 at every rtol
+#: let it reach 7.8 rtol at 1e-10, 1e-3 at every rtol costs 13 % more points at 1e-5 .. 1e-6
+TRUSTED_CHANGE_SCALE, TRUSTED_CHANGE_LEAST, TRUSTED_CHANGE_MOST = 10.0, 1e-3, 1e-2
 #: the smallest normal term accepted, as a share of g (a graze goes to the kernel)
 NU_MARGIN = 1e-2
 #: the smallest E accepted, as a share of the start's scale E_0 + |dE/dxi(A)| xi
@@ -78,74 +83,6 @@ ENERGY_MARGIN = 1e-3
 START_MARGIN = 1e-9
 #: the dip between two points: at most this times the larger neighbouring second difference
 DIP_FACTOR = 0.25
-#: the slot of tau = 1 (B's side of each panel; see _slots)
-END_SLOT = 2
-
-
-def _slots() -> np.ndarray:
-    """A panel's points are stored in LEVEL ORDER: level l's n + 1 points are
-    the panel's first n + 1 slots (tau = 0, 1/2, 1, then each level's new
-    points in order of tau), so that each level's new points are one
-    contiguous block (the per-point passes vectorise).  Entry m: the slot of
-    the finest level's m-th point in order of tau."""
-    finest = LEVELS[-1]
-    slot = np.empty(finest + 1, dtype=np.int64)
-    slot[[0, finest // 2, finest]] = 0, 1, END_SLOT  # the first level, n = 2
-    for n in LEVELS[1:]:
-        slot[np.arange(1, n, 2) * (finest // n)] = np.arange(n // 2 + 1, n + 1)  # its new (odd) points
-    return slot
-
-
-#: the slot of each of the finest level's points (in order of tau)
-SLOT = _slots()
-#: the integration matrices' columns are padded with zeros to a multiple of this (no scalar remainder
-#: in the vectorised product; 8 = two 256-bit vectors, LLVM's interleaved vector body)
-PADDING = 8
-
-
-@jit
-def _row_length(n):
-    """The padded length of a column of level n's (n + 1)^2 integration matrix."""
-    return (n + PADDING) // PADDING * PADDING
-
-
-@functools.lru_cache(maxsize=None)
-def node_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(xi / L and dxi/dtau / L at each panel's finest points, PANELS rows of
-    n + 1 in level order (SLOT), flattened; every level's integration matrix
-    (n + 1)^2 on tau in [0, 1], TRANSPOSED with its rows (the points
-    integrated to) in level order, flattened one after another; each
-    level's offset into them).  Panel 0 is xi = h tau^2 (h = L / PANELS: the
-    start's 1 / sqrt(E) made smooth), the others xi = h (p + tau).  Entry
-    [k, SLOT[i]] of a level's block integrates the interpolant's k-th point
-    (in order of tau) from tau = 0 to its point i; [k, END_SLOT] holds the
-    Clenshaw-Curtis weights."""
-    finest = LEVELS[-1]
-    natural = 0.5 * (1.0 - np.cos(np.pi * np.arange(finest + 1) / finest))
-    natural[0], natural[-1] = 0.0, 1.0
-    tau = np.empty(finest + 1)
-    tau[SLOT] = natural
-    h = 1.0 / PANELS
-    xi = np.concatenate([h * tau * tau] + [h * (p + tau) for p in range(1, PANELS)])
-    jacobian = np.concatenate([2.0 * h * tau] + [np.full(finest + 1, h) for _ in range(1, PANELS)])
-    blocks, offsets, offset = [], [], 0
-    for n in LEVELS:
-        z = 2.0 * natural[:: finest // n] - 1.0
-        vandermonde = np.polynomial.chebyshev.chebvander(z, n)
-        integrals = np.empty((n + 1, n + 1))
-        for k in range(n + 1):
-            unit = np.zeros(n + 1)
-            unit[k] = 1.0
-            integrals[:, k] = np.polynomial.chebyshev.chebval(z, np.polynomial.chebyshev.chebint(unit, lbnd=-1.0))
-        matrix = 0.5 * integrals @ np.linalg.inv(vandermonde)  # d tau = dz / 2
-        matrix[0] = 0.0
-        transposed = np.zeros((n + 1, _row_length(n)))
-        transposed[:, SLOT[:: finest // n]] = matrix.T
-        blocks.append(transposed.ravel())
-        offsets.append(offset)
-        offset += transposed.size
-    return xi, jacobian, np.concatenate(blocks), np.array(offsets, dtype=np.int64)
-
 
 @jit
 def _mode_basis(shared, x_a, span, xi_unit, basis, scratch):
@@ -223,17 +160,53 @@ def _panel_points(shared, row, basis, jacobian_unit, first_panel, stop_panel, fi
 
 
 @jit
-def _dip_bound(values, first, n, margin):
-    """Whether values[first .. first + n] (equally spaced in the Lobatto
-    angle) stay above ``margin`` between the points too: each interval's
-    smaller end less DIP_FACTOR times the larger second difference at its ends."""
-    for i in range(first, first + n):
-        low = min(values[i], values[i + 1])
-        left = values[i - 1] - 2.0 * values[i] + values[i + 1] if i > first else 0.0
-        right = values[i] - 2.0 * values[i + 1] + values[i + 2] if i + 1 < first + n else 0.0
-        if not low - DIP_FACTOR * max(abs(left), abs(right)) > margin:
-            return False
-    return True
+def _dip_bound(values, n, margin, spread):
+    """Whether values[0 .. n] (equally spaced in the Lobatto angle) stay above
+    ``margin`` between the points too: each interval's smaller end less
+    DIP_FACTOR times the larger |second difference| at its ends (0 at the
+    path's ends), into ``spread``.  Branch-free, so that its loops vectorise."""
+    spread[0] = 0.0
+    spread[n] = 0.0
+    inner, before, middle, after = spread[1:n], values[0:n - 1], values[1:n], values[2:n + 1]
+    for i in range(n - 1):
+        inner[i] = abs(before[i] - 2.0 * middle[i] + after[i])
+    low, high, spread_low, spread_high = values[0:n], values[1:n + 1], spread[0:n], spread[1:n + 1]
+    kept = True
+    for i in range(n):
+        kept &= min(low[i], high[i]) - DIP_FACTOR * max(spread_low[i], spread_high[i]) > margin
+    return kept
+
+
+#: _contact_margins' verdicts: every margin kept; a point itself within one; only the bound between points
+MARGINS_KEPT, MARGINS_BROKEN, MARGINS_BETWEEN = 0, 1, 2
+
+
+@jit
+def _contact_margins(energy, bend, xi_unit, n, first_panel, energy_0, pull_length, g, ratio, nu, spread):
+    """Whether E > 0 and n > 0 hold on a panel's level-n points (the panel's
+    views, level order) with the margins, between the points too (_dip_bound):
+    MARGINS_KEPT; MARGINS_BROKEN where a point itself is within a margin (no
+    finer level lifts it: the kernel's case); MARGINS_BETWEEN where only the
+    bound between points fails (a finer level's closer points may prove it).
+    E is measured against the start's scale E_0 + |dE/dxi(A)| xi (at A from
+    rest, 0 / 0: set to 1)."""
+    finest = xi_unit.size - 1
+    stride = finest // n
+    for i in range(n + 1):  # in order of tau
+        j = SLOT[i * stride]
+        e = energy[j]
+        ratio[i] = e / (energy_0 + pull_length * xi_unit[j])
+        nu[i] = 1.0 + 2.0 * e * bend[j] / g
+    if first_panel:
+        ratio[0] = 1.0
+    kept = True
+    for i in range(n + 1):
+        kept &= (ratio[i] > ENERGY_MARGIN) & (nu[i] > NU_MARGIN)
+    if not kept:
+        return MARGINS_BROKEN
+    if _dip_bound(ratio, n, ENERGY_MARGIN, spread) and _dip_bound(nu, n, NU_MARGIN, spread):
+        return MARGINS_KEPT
+    return MARGINS_BETWEEN
 
 
 @jit
@@ -268,7 +241,9 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
     power = np.empty(_row_length(finest))  # g + 2 E f'' / (1 + f'^2)
     ratio = np.empty(finest + 1)
     nu = np.empty(finest + 1)
+    spread = np.empty(finest + 1)  # _dip_bound's scratch
     two_mu_d = 2.0 * mu_k * direction
+    trusted_change = min(TRUSTED_CHANGE_MOST, max(TRUSTED_CHANGE_LEAST, TRUSTED_CHANGE_SCALE * math.sqrt(rtol)))
     for c in range(rows.size):
         row = float(rows[c])
         valid[c] = False
@@ -313,13 +288,8 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 # the integration matrix times the integrand, by columns (in order of tau: the
                 # sums are rounded in the same order as row by row), vectorised over the rows
                 rows_padded = _row_length(n)
-                for i in range(rows_padded):
-                    total[i] = 0.0
-                for k in range(n + 1):
-                    value = integrand[start + SLOT[k * stride]]
-                    column = matrices[base + k * rows_padded:base + (k + 1) * rows_padded]
-                    for i in range(rows_padded):
-                        total[i] += column[i] * value
+                _integrate(matrices[base:base + (n + 1) * rows_padded], integrand[start:start + finest + 1], n,
+                           stride, rows_padded, total)
                 stop = start + rows_padded  # the slots beyond n: values never read
                 grow_p, energy_p = grow[start:stop], energy[start:stop]
                 bend_p, jacobian_p = bend[start:stop], jacobian[start:stop]
@@ -355,29 +325,21 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 # the change since the level below bounds that level's error; with a
                 # geometric rate, the accepted level's is smaller by the latest ratio
                 error = change * min(1.0, SAFETY * change / previous_change) if previous_change > 0.0 else change
-                if error <= rtol and level >= FIRST_ACCEPTED:
-                    accepted = level
-                    worst = max(worst, error)
-                    used += n
-                    break
+                if error <= rtol and level >= FIRST_ACCEPTED and previous_change <= trusted_change:
+                    margins = _contact_margins(energy[start:start + finest + 1], bend[start:start + finest + 1],
+                                               xi_unit[start:start + finest + 1], n, p == 0, energy_0,
+                                               abs(pull) * length, g, ratio, nu, spread)
+                    if margins == MARGINS_KEPT:
+                        accepted = level
+                        worst = max(worst, error)
+                        used += n
+                        break
+                    if margins == MARGINS_BROKEN:
+                        break  # a point itself within a margin: the kernel's case (accepted stays -1)
+                    # only the bound between points fails: the next level's points bound it closer
                 previous_t, previous_w, previous_c = panel_t, panel_w, panel_c
                 previous_change = change
             if accepted < 0:
-                ok = False
-                break
-            # E > 0 and n > 0 between the points too, with margins
-            n = LEVEL_POINTS[accepted]
-            stride = finest // n
-            for i in range(n + 1):
-                j = start + SLOT[i * stride]
-                e = energy[j]
-                if p == 0 and i == 0:
-                    ratio[i] = 1.0
-                else:
-                    ratio[i] = e / (energy_0 + abs(pull) * length * xi_unit[j])
-                    ok = ok and e > 0.0
-                nu[i] = 1.0 + 2.0 * e * bend[j] / g
-            if not (ok and _dip_bound(ratio, 0, n, ENERGY_MARGIN) and _dip_bound(nu, 0, n, NU_MARGIN)):
                 ok = False
                 break
             carried += panel_c
