@@ -64,8 +64,10 @@ def _tiers_agree(name, method, contact, effects):
     _same_bits(general.run(), specialised.run())
 
 
-@pytest.mark.parametrize("contact", ["one_sided", "two_sided"])
-@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+# two-sided RK4 (a specialised variant of its own) in the slow suite
+@pytest.mark.parametrize("method, contact", [
+    ("rk4", "one_sided"), ("dopri5", "one_sided"), ("dopri5", "two_sided"),
+    pytest.param("rk4", "two_sided", marks=pytest.mark.slow)])
 def test_general_equals_specialised_on_the_loop(method, contact):
     # friction in some trajectories, no drag: the general kernel's drag terms
     # and (for dopri5) its friction-free trajectories' norms are no-ops

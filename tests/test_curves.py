@@ -31,12 +31,15 @@ TOL["dop853"] = 10 * RTOL["dop853"]
 CLOSED_FORM_METHODS = METHODS + ("dop853",)
 
 
-def every(*methods):
-    """``methods`` as parameters, semi-implicit Euler in the slow suite: its
-    kernels cost compile time, and explicit Euler keeps the first-order
-    path in the default one."""
-    return [pytest.param(method, marks=pytest.mark.slow) if method == "semi_implicit_euler"
-            else method for method in methods]
+def every(*methods, slow=()):
+    """``methods`` as parameters, then ``slow`` ones, with semi-implicit Euler
+    and ``slow`` in the slow suite: their kernels cost compile time, and
+    explicit Euler keeps the first-order path in the default one (dop853
+    runs every closed form of the loop there; on the other families it is
+    slow)."""
+    return [pytest.param(method, marks=pytest.mark.slow)
+            if method == "semi_implicit_euler" or method in slow else method
+            for method in methods + tuple(slow)]
 
 
 # ------------------------------------------------------------------------------
@@ -140,7 +143,10 @@ def test_dome_reversal_then_fall_orders(method):
     assert np.all(np.abs(orders - ORDER[method]) < 0.2), (errors, orders)
 
 
-@pytest.mark.parametrize("method, rtol", [(method, rtol) for method in ("dopri5", "dop853")
+# dop853 (its kernel on the cycloid) in the slow suite; on the loop in the default one
+@pytest.mark.parametrize("method, rtol", [(method, rtol) if method == "dopri5"
+                                          else pytest.param(method, rtol, marks=pytest.mark.slow)
+                                          for method in ("dopri5", "dop853")
                                           for rtol in (1e-4, 1e-6, 1e-9)])
 def test_adaptive_pairs_within_ten_times_rtol(method, rtol):
     """The adaptive pair on the loop's lift-off, the dome's reversal and
@@ -226,7 +232,7 @@ def test_circular_arc_with_friction_stops_where_u_vanishes(method):
 # ------------------------------------------------------------------------------
 # the brachistochrone cycloid from its cusp: at rest on a vertical tangent
 # ------------------------------------------------------------------------------
-@pytest.mark.parametrize("method", every(*CLOSED_FORM_METHODS))
+@pytest.mark.parametrize("method", every(*METHODS, slow=("dop853",)))
 @pytest.mark.parametrize("radius", [0.25, 1.0])
 def test_cycloid_from_the_cusp_reaches_the_bottom_in_pi_sqrt_r_over_g(method, radius):
     """At rest at the cusp nu = 0 exactly and kappa > 0: it slides off in
@@ -270,7 +276,7 @@ def test_quarter_pipe_top_is_vertical_and_the_block_comes_back(method):
     assert out["Y_end"][1] == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("method", every(*METHODS, "dopri5", "dop853"))
+@pytest.mark.parametrize("method", every(*METHODS, "dopri5", slow=("dop853",)))
 def test_quarter_pipe_with_friction_steps_end_at_the_joint(method):
     """Over the flat u^2 falls by 2 mu g L, then the circular arc's exact
     solution up to the vertical end.  The curvature jump at the joint is an
@@ -352,7 +358,13 @@ def _compare_wrapped(ramp, method, seed):
     return ds
 
 
-@pytest.mark.parametrize("ramp", WRAPPED, ids=lambda r: r.family)
+#: RK4 on every wrapped family: those the coverage test below also runs in the
+#: default suite, the bowl, the cycloid and the spline (a kernel each) in the slow one
+WRAPPED_RK4 = [ramp if ramp.family in ("quadratic", "circular_dome", "sine")
+               else pytest.param(ramp, marks=pytest.mark.slow) for ramp in WRAPPED]
+
+
+@pytest.mark.parametrize("ramp", WRAPPED_RK4, ids=lambda r: r.family)
 def test_wrapped_ramps_agree_with_the_ramp_kernel_rk4(ramp):
     _compare_wrapped(ramp, "rk4", seed=7)
 
@@ -370,7 +382,7 @@ def test_wrapped_ramps_agree_with_the_ramp_kernel_first_order(ramp, method):
 
 
 @pytest.mark.parametrize("ramp", WRAPPED_METHOD_FAMILIES, ids=lambda r: r.family)
-@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
 def test_wrapped_ramps_agree_with_the_ramp_kernel_adaptive(ramp, method):
     _compare_wrapped(ramp, method, seed=5)
 

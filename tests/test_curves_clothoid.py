@@ -65,9 +65,11 @@ def _reference(a, length, u0, mu):
     return sol.t_events[0][0], sol.y_events[0][0][1], sol.y_events[0][0][2]
 
 
+# RK4 and dopri5 in the default suite, explicit Euler and dop853 (a kernel
+# each, their paths run on the loop there) in the slow one
 @pytest.mark.parametrize("method, dt, tol", [("rk4", 1e-3, 1e-9), ("dopri5", 1e-3, 1e-8),
-                                             ("dop853", 1e-3, 1e-8),
-                                             ("euler", 1e-5, 1e-3)])
+                                             pytest.param("dop853", 1e-3, 1e-8, marks=pytest.mark.slow),
+                                             pytest.param("euler", 1e-5, 1e-3, marks=pytest.mark.slow)])
 def test_clothoid_run_against_an_independent_reference(method, dt, tol):
     """Up an Euler spiral that turns past the vertical (2 rad): the speed,
     time and friction work at its end; without friction, energy gives

@@ -95,7 +95,7 @@ def _trace(method, u0, mu, **settings):
 
 @pytest.mark.parametrize("method, settings, tol", [
     ("rk4", {"dt": 1e-3}, 2e-10), ("dopri5", {"rtol": 1e-10}, 1e-8),
-    ("euler", {"dt": 1e-4}, 2e-3)])
+    pytest.param("euler", {"dt": 1e-4}, 2e-3, marks=pytest.mark.slow)])  # its trace variant: slow
 def test_with_friction_every_piece_follows_its_closed_form(method, settings, tol):
     u0, mu = 10.0, 0.1
     out, trace = _trace(method, u0, mu, **settings)
@@ -135,7 +135,7 @@ def test_the_joints_keep_the_methods_order(method, dts, order):
 
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-8, 1e-10])
-@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
 def test_adaptive_pairs_within_ten_times_rtol_across_the_joints(method, rtol):
     u0, mu = 10.0, 0.1
     out = simulate_curve(_track(), s0=0.0, u0=u0, mu_k=mu, method=method, dt=1e-3, rtol=rtol)

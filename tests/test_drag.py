@@ -219,8 +219,10 @@ def _raw(scene, sweep, **drag_flags):
 NO_DRAG_SWEEP = rw.Sweep.random(24, seed=5, x0=(-0.95, 0.95), v0=(-2.5, 2.5), mu=(0.1, 0.3))
 
 
+# semi-implicit Euler (two kernels of its own) in the slow suite
 @pytest.mark.parametrize("method, settings", [
-    ("euler", dict(dt=1e-3)), ("semi_implicit_euler", dict(dt=1e-3)), ("rk4", dict(dt=1e-3))])
+    ("euler", dict(dt=1e-3)), ("rk4", dict(dt=1e-3)),
+    pytest.param("semi_implicit_euler", dict(dt=1e-3), marks=pytest.mark.slow)])
 def test_zero_drag_is_bit_identical_for_fixed_steps(method, settings):
     """A kernel built with both drag terms but given b = c = 0 does the same
     arithmetic where it matters: the drag rate is exactly 0, fma(-0, v, a) is
