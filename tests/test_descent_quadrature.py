@@ -25,9 +25,9 @@ G = 9.81
 SHAPE = ChordModes(start=(0.0, 1.0), end=(2.0, 0.0), k=4)
 
 
-def _quadrature(shape, table, mu, rtol, v0=0.0, mu_s=None, t_max=60.0):
-    """The core function's outputs for ``table``'s rows (A -> B of ``shape``)."""
-    xi, jacobian, matrices, offsets = nodes.node_tables()
+def _quadrature(shape, table, mu, rtol, v0=0.0, mu_s=None, t_max=60.0, panels=nodes.PANELS):
+    """The core function's outputs for ``table``'s rows (A -> B of ``shape``) on ``panels`` panels."""
+    xi, jacobian, matrices, offsets = nodes.node_tables(panels)
     lo, hi = shape.domain
     direction = 1.0 if shape.start[0] < shape.end[0] else -1.0
     size = table.shape[0]
@@ -168,6 +168,24 @@ def test_hard_candidates_meet_the_rtol():
         for r, ref in enumerate(references):
             assert result["t_end"][r] == pytest.approx(ref["t_end"], rel=rtol), (rtol, r)
             assert result["work"][r] == pytest.approx(ref["W_friction"], rel=rtol), (rtol, r)
+
+
+def test_the_first_layout_meets_the_rtol_or_hands_over():
+    """On PANEL_LAYOUTS[0]'s 4 panels, a candidate it proves valid (most of
+    the valid ones; hard ones too) meets the rtol against scipy at 1e-12;
+    one it does not goes on to the 8 panels (ChordModes.evaluate)."""
+    shape = ChordModes(start=(0.0, 1.0), end=(2.0, 0.0), k=6)
+    table = np.vstack([HARD, _population(11, 40, shape=shape)])
+    references = {}
+    assert nodes.PANEL_LAYOUTS == (4, nodes.PANELS)
+    for rtol in (1e-5, 1e-6, 1e-8, 1e-10):
+        result = _quadrature(shape, table, 0.2, rtol, panels=4)
+        assert result["valid"].sum() >= 12, rtol
+        for r in np.flatnonzero(result["valid"]):
+            ref = references[r] = references[r] if r in references else _reference(shape, table[r], 0.2)
+            assert result["t_end"][r] == pytest.approx(ref["t_end"], rel=rtol), (rtol, r)
+            assert result["work"][r] == pytest.approx(ref["W_friction"], rel=rtol), (rtol, r)
+            assert result["estimate"][r] <= rtol
 
 
 def test_the_contact_margins_verdicts():

@@ -233,9 +233,9 @@ class _SineModes(RampFamily):
         if table.size % k:
             raise ConfigError("ramp.coefficients", f"expected rows of n_modes = {k} numbers, got "
                               f"{table.size} numbers")
-        return tuple(np.concatenate(  # tolist: Python floats, as float(v) each, in one pass
+        return np.concatenate(  # an array: Ramp makes it a tuple in one pass and keeps it for shared_array
             [[k, lo, hi, ends[0], ends[1], (ends[1] - ends[0]) / (hi - lo), math.pi / (hi - lo)], table],
-            dtype=np.float64).tolist())
+            dtype=np.float64)
 
     def data_dict(self, shared):
         k = int(shared[0])

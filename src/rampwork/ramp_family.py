@@ -171,9 +171,10 @@ class RampFamily:
     def _check_family(self, arrays, lo, hi, shared) -> None:
         pass
 
-    def build_shared(self, data: Mapping, domain) -> tuple[float, ...]:
-        """``shared`` from the family's ``data_names`` values (validated);
-        ``domain`` as given (None where the family supplies its own)."""
+    def build_shared(self, data: Mapping, domain) -> tuple[float, ...] | np.ndarray:
+        """``shared`` from the family's ``data_names`` values (validated;
+        floats, or a float64 array that Ramp turns into them); ``domain`` as
+        given (None where the family supplies its own)."""
         raise ConfigError("ramp", f"ramp family {self.name!r} takes no data")
 
     def data_domain(self, shared) -> tuple[float, float] | None:

@@ -73,9 +73,10 @@ class Prepared:
     tier: str  # "general" or "specialised" (see rampwork.kernels)
 
 
-def prepare(plan: RunPlan, kernel: str | None = None) -> Prepared:
+def prepare(plan: RunPlan, kernel: str | None = None, warm_up: bool = True) -> Prepared:
     """Build (or load) the kernels of the plan's tier (``kernel``: a tier of
-    ``kernels.TIERS``; None: the default) and compile them on one trajectory."""
+    ``kernels.TIERS``; None: the default) and compile them on one trajectory
+    (``warm_up=False``: only where not loaded in this process already)."""
     tier = kernels.choose_tier(plan, kernel)
     variant = kernels.tier_variant(plan, tier)
     source = kernels.kernel_source(variant, plan)
@@ -83,7 +84,8 @@ def prepare(plan: RunPlan, kernel: str | None = None) -> Prepared:
     settings = np.concatenate([_settings(plan.scene), kernels.runtime_settings(plan)])
     shared = kernels.tier_shared(plan, tier)
     with _codegen(tier):
-        compile_seconds = build_seconds + _warm_up(run_batch, plan, settings, shared)
+        compile_seconds = build_seconds + (_warm_up(run_batch, plan, settings, shared)
+                                           if warm_up or source != "loaded" else 0.0)
     if source == "compiled" and tier == "specialised":
         # the general kernels, once per machine, in the background: started
         # after this compilation, so that the two do not share the cores
@@ -346,6 +348,26 @@ def run_scene(scene: Scene, sweep: Sweep | None = None, *, threads: int | None =
                                     steps, kernel_source=handover.first.kernel_source,
                                     kernel_tier=", then ".join(tiers), store_scene=store_scene))
     return dataset
+
+
+def run_outputs(scene: Scene, sweep: Sweep, threads: int | None = None) -> tuple[dict[str, np.ndarray], float]:
+    """The output variables of ``scene`` over ``sweep`` as flat arrays, and
+    the kernel's compile seconds: :func:`run_scene`'s results (the same
+    kernel tier) without its Dataset, attributes, traces and background
+    specialisation, for callers that hand a few rows over per call
+    (ChordModes.evaluate's quadrature: those cost ~1.5 ms a call)."""
+    plan = plan_run(scene, sweep)
+    check_memory(plan)
+    threads = thread_count(threads)
+    prepared = prepare(plan, warm_up=False)
+    results = empty_results(plan, plan.size)
+    buffers = ChunkBuffers(plan, min(plan.size, CHUNK_SIZE))
+    with using_threads(threads):
+        for start in range(0, plan.size, CHUNK_SIZE):
+            stop = min(plan.size, start + CHUNK_SIZE)
+            run_chunk(prepared, start, stop, threads, out={name: array[start:stop] for name, array in results.items()},
+                      buffers=buffers)
+    return results, prepared.compile_seconds
 
 
 def with_traces(prepared: Prepared, dataset: xr.Dataset) -> tuple[xr.Dataset, float]:

@@ -206,12 +206,13 @@ class ChordModes:
 
     def _quadrature(self, scene: Scene, table: np.ndarray, threads) -> tuple[dict, dict]:
         """The outputs that ``evaluate`` reads (KERNEL_READ and speed_end) and
-        the run's attributes: by quadrature where valid, by the kernel (one
-        call over the rest) elsewhere."""
+        the run's attributes: by quadrature where valid (on 4 panels, then on
+        8 for the candidates the 4 do not prove valid: descent_nodes.PANEL_LAYOUTS),
+        by the kernel (one call over the rest) elsewhere."""
         from .core import descent_quadrature as quadrature
-        from .core.descent_nodes import node_tables
+        from .core.descent_nodes import PANEL_LAYOUTS, node_tables
         from .core.threads import run_items, using_threads
-        from .runner import run_scene, thread_count
+        from .runner import run_outputs, thread_count
         from .schema import global_attrs
 
         if scene.drag.linear != 0.0 or scene.drag.quadratic != 0.0:
@@ -224,29 +225,37 @@ class ChordModes:
         size = table.shape[0]
         started = time.perf_counter()
         compiled = bool(quadrature.descent_quadrature.signatures)
-        xi, jacobian, matrices, offsets = node_tables()
         lo, hi = self.domain
         direction = 1.0 if self.start[0] < self.end[0] else -1.0
         rtol = scene.integrator.rtol
         mu_s = scene.friction.mu_k if scene.friction.mu_s is None else scene.friction.mu_s
         t_end, work, energy_end, slope_end, estimate = (np.empty(size) for _ in range(5))
         nodes, valid = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.bool_)
-        shared = np.asarray(scene.ramp.shared, dtype=np.float64)
-        rows = np.arange(size, dtype=np.float64)
+        shared = scene.ramp.shared_array()
         settings = (self.start[0], direction, hi - lo, scene.g, scene.friction.mu_k, mu_s, scene.v0,
-                    scene.t_max, rtol, xi, jacobian, matrices, offsets)
+                    scene.t_max, rtol)
         outputs = (t_end, work, energy_end, slope_end, estimate, nodes, valid)
 
-        def run_tiles(first, stop):  # tiles of QUADRATURE_TILE candidates: each candidate alone
+        def run_tiles(first, stop, rows, tables, found):  # tiles of QUADRATURE_TILE candidates: each alone
             tiles = slice(first * QUADRATURE_TILE, stop * QUADRATURE_TILE)
-            quadrature.descent_quadrature(shared, rows[tiles], *settings, *(out[tiles] for out in outputs))
+            quadrature.descent_quadrature(shared, rows[tiles], *settings, *tables, *(out[tiles] for out in found))
 
         compile_s = 0.0
-        if not compiled:  # compile (or load from numba's disk cache) on one tile, timed apart
-            run_tiles(0, 1)
-            compile_s = time.perf_counter() - started
-        with using_threads(threads_used):
-            run_items(run_tiles, -(-size // QUADRATURE_TILE))
+        rest = np.arange(size)
+        for panels in PANEL_LAYOUTS:  # each layout on the candidates the ones before did not prove valid
+            found = tuple(np.empty(rest.size, dtype=out.dtype) for out in outputs)
+            work_items = (rest.astype(np.float64), node_tables(panels), found)
+            if not compiled:  # compile (or load from numba's disk cache) on one tile, timed apart
+                run_tiles(0, 1, *work_items)
+                compile_s = time.perf_counter() - started
+                compiled = True
+            with using_threads(threads_used):
+                run_items(run_tiles, -(-rest.size // QUADRATURE_TILE), *work_items)
+            for out, values in zip(outputs, found):
+                out[rest] = values
+            rest = rest[~found[-1]]
+            if not rest.size:
+                break
         status = np.full(size, EXITED, dtype=np.int8)
         x_end = np.full(size, self.end[0])
         x_lift_off = np.full(size, np.nan)
@@ -255,12 +264,11 @@ class ChordModes:
         w_friction = scene.m * work
         w_excess = w_friction - scene.friction.mu_k * scene.m * scene.g * (hi - lo)
         outputs = dict(zip(KERNEL_READ, (status, t_end, x_end, v_end, w_friction, w_excess, x_lift_off)))
-        rest = np.flatnonzero(~valid)
-        if rest.size:
-            run = run_scene(scene, Sweep.cases(row=rest.astype(np.float64)), threads=threads, store_scene=False)
-            compile_s += float(run.attrs.get("compile_time_s", 0.0))
+        if rest.size:  # the kernel's arrays, no Dataset (1 ms of a call's ~12 at rtol 1e-6)
+            run, kernel_compile_s = run_outputs(scene, Sweep.cases(row=rest.astype(np.float64)), threads)
+            compile_s += kernel_compile_s
             for name, values in outputs.items():
-                values[rest] = run[name].values
+                values[rest] = run[name]
             speed_end[rest] = self._speed(table[rest], x_end[rest], v_end[rest])
         outputs["speed_end"] = speed_end
         attrs = global_attrs(scene.title, "", f"rampwork.ChordModes.evaluate: {size} candidates, "

@@ -1,5 +1,6 @@
 """The nodes and integration matrices of core/descent_quadrature.py: the
-path in PANELS panels, each on nested Chebyshev-Lobatto levels of tau
+path in equal panels (PANEL_LAYOUTS: 4, then 8 for a candidate the 4 do
+not prove), each on nested Chebyshev-Lobatto levels of tau
 (n = 2 .. 64 points), stored in LEVEL ORDER (each level's new points one
 contiguous block, so that the per-point passes vectorise); each level's
 spectral integration matrix, transposed and padded, so that its product
@@ -16,11 +17,17 @@ from .jit import jit
 #: the path's panels (equal lengths in x): each integrates on its own points,
 #: refined on its own, so a difficulty in one panel costs no points elsewhere
 PANELS = 8
+#: the layouts ChordModes.evaluate tries in turn: 4 panels (90 points a candidate at rtol 1e-5 .. 1e-6
+#: against 131 on 8, the estimate as honest), then PANELS for the few candidates the 4 do not prove
+#: valid (their levels run out, or a point falls within a contact margin), then the ODE kernel
+PANEL_LAYOUTS = (4, PANELS)
 #: the points per panel n of the levels (Chebyshev-Lobatto: n + 1, each level's a subset of the next)
 LEVELS = (2, 4, 8, 16, 32, 64)
 LEVEL_POINTS = np.array(LEVELS, dtype=np.int64)
 #: the slot of tau = 1 (B's side of each panel; see _slots)
 END_SLOT = 2
+#: a panel's slots: the finest level's points
+PANEL_SLOTS = LEVELS[-1] + 1
 
 
 def _slots() -> np.ndarray:
@@ -51,12 +58,12 @@ def _row_length(n):
 
 
 @functools.lru_cache(maxsize=None)
-def node_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(xi / L and dxi/dtau / L at each panel's finest points, PANELS rows of
+def node_tables(panels: int = PANELS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(xi / L and dxi/dtau / L at each panel's finest points, ``panels`` rows of
     n + 1 in level order (SLOT), flattened; every level's integration matrix
     (n + 1)^2 on tau in [0, 1], TRANSPOSED with its rows (the points
     integrated to) in level order, flattened one after another; each
-    level's offset into them).  Panel 0 is xi = h tau^2 (h = L / PANELS: the
+    level's offset into them).  Panel 0 is xi = h tau^2 (h = L / panels: the
     start's 1 / sqrt(E) made smooth), the others xi = h (p + tau).  Entry
     [k, SLOT[i]] of a level's block integrates the interpolant's k-th point
     (in order of tau) from tau = 0 to its point i; [k, END_SLOT] holds the
@@ -66,9 +73,9 @@ def node_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     natural[0], natural[-1] = 0.0, 1.0
     tau = np.empty(finest + 1)
     tau[SLOT] = natural
-    h = 1.0 / PANELS
-    xi = np.concatenate([h * tau * tau] + [h * (p + tau) for p in range(1, PANELS)])
-    jacobian = np.concatenate([2.0 * h * tau] + [np.full(finest + 1, h) for _ in range(1, PANELS)])
+    h = 1.0 / panels
+    xi = np.concatenate([h * tau * tau] + [h * (p + tau) for p in range(1, panels)])
+    jacobian = np.concatenate([2.0 * h * tau] + [np.full(finest + 1, h) for _ in range(1, panels)])
     blocks, offsets, offset = [], [], 0
     for n in LEVELS:
         z = 2.0 * natural[:: finest // n] - 1.0

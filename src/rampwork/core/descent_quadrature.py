@@ -12,8 +12,9 @@ a LINEAR first-order equation (dtheta/dxi = f'' / (1 + f'^2)), so
     T = int sqrt(1 + f'^2) / sqrt(2 E) dxi,   W / m = mu int (g + 2 E f'' / (1 + f'^2)) dxi.
 
 The start at rest makes 1 / sqrt(E) singular like xi^(-1/2).  The path is
-cut into PANELS equal lengths in x; on the first, xi = h tau^2 (h = L /
-PANELS) makes every integrand smooth (analytic for sine modes) in tau, the
+cut into P equal lengths in x (the node tables' layout: 4 or 8, see
+descent_nodes.PANEL_LAYOUTS); on the first, xi = h tau^2 (h = L / P) makes
+every integrand smooth (analytic for sine modes) in tau, the
 others are linear in tau.  On a panel's Chebyshev-Lobatto points of tau the
 cumulative integral is a precomputed spectral integration matrix (its last
 row: the Clenshaw-Curtis weights).  Each panel, in turn from A, is refined
@@ -59,7 +60,7 @@ import math
 import numpy as np
 
 from . import vmath, vmath_exp
-from .descent_nodes import END_SLOT, LEVEL_POINTS, PADDING, PANELS, SLOT, _integrate, _row_length
+from .descent_nodes import END_SLOT, LEVEL_POINTS, PADDING, PANEL_SLOTS, SLOT, _integrate, _row_length
 from .jit import fma, jit
 from .ramps import MODES_HEADER, sine_modes_slope_curvature
 
@@ -134,7 +135,7 @@ def _panel_points(shared, row, basis, jacobian_unit, first_panel, stop_panel, fi
     size = basis.size // (2 * k)
     count = stop - first
     for p in range(first_panel, stop_panel):
-        low = p * (size // PANELS) + first
+        low = p * PANEL_SLOTS + first
         high = low + count
         slope_p, curve_p = slope[low:high], curve[low:high]
         for j in range(count):
@@ -218,9 +219,10 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
     ``energy_end`` (E at B), ``slope_end`` (f' at B), ``estimate`` (relative
     error: each panel's worst of T, W and the energy integral, the largest),
     ``nodes`` (points used) and ``valid`` (see the module).  The tables are
-    node_tables()'s (level order)."""
+    node_tables(P)'s (level order; P panels: xi_unit.size // PANEL_SLOTS)."""
     size = xi_unit.size
-    finest = size // PANELS - 1
+    finest = PANEL_SLOTS - 1
+    panels = size // PANEL_SLOTS
     first_points = LEVEL_POINTS[FIRST_ACCEPTED] + 1  # every panel's points up to the first accepted level
     padded = size + PADDING  # the per-level passes run over padded lengths (no scalar remainder)
     fp = np.zeros(padded)
@@ -264,7 +266,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
         elif v0 * direction < 0.0:
             continue
         # the point values do not depend on E: every panel's first levels in one pass
-        _panel_points(shared, row, basis, jacobian_unit, 0, PANELS, 0, first_points, atan_a, two_mu_d, direction,
+        _panel_points(shared, row, basis, jacobian_unit, 0, panels, 0, first_points, atan_a, two_mu_d, direction,
                       length, g, mu_k, fp, arc, bend, grow, integrand, slope, curve)
         carried = energy_0  # E_0 plus the energy integral up to the panel's start
         t_total = 0.0
@@ -272,7 +274,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
         worst = 0.0
         used = 0
         ok = True
-        for p in range(PANELS):
+        for p in range(panels):
             start = p * (finest + 1)
             previous_t = previous_w = previous_c = np.nan
             previous_change = 1.0
@@ -300,7 +302,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                     power[i] = g + 2.0 * e * bend_p[i]
                 if p == 0 and energy_0 == 0.0:
                     # jacobian / sqrt(2 E) -> sqrt(2 h / pull) at the start from rest (slot 0)
-                    speed_factor[0] = math.sqrt(2.0 * length / PANELS / pull)
+                    speed_factor[0] = math.sqrt(2.0 * length / panels / pull)
                 panel_c = total[END_SLOT]
                 panel_t = 0.0
                 panel_w = 0.0
@@ -321,7 +323,7 @@ def descent_quadrature(shared, rows, x_a, direction, length, g, mu_k, mu_s, v0, 
                 change = max(abs(panel_t - previous_t) / panel_t,
                              abs(panel_c - previous_c) / max(abs(end_energy), 1e-300))
                 if mu_k > 0.0:
-                    change = max(change, abs(panel_w - previous_w) / max(panel_w, NU_MARGIN * g * length / PANELS))
+                    change = max(change, abs(panel_w - previous_w) / max(panel_w, NU_MARGIN * g * length / panels))
                 # the change since the level below bounds that level's error; with a
                 # geometric rate, the accepted level's is smaller by the latest ratio
                 error = change * min(1.0, SAFETY * change / previous_change) if previous_change > 0.0 else change
