@@ -18,6 +18,7 @@ Only --cpu-time and --threads 1 are meaningful here (1 thread, CPU time).
     PYTHONPATH=src python benchmarks/pdot_prototype.py --n 2000 --repeat 3 --cpu-time \
         --threads 1 --cases graph:quadratic,graph:sine,arc:circular_bowl --methods euler,rk4 \
         [--lean] [--block 8]
+    PYTHONPATH=src python benchmarks/pdot_prototype.py --check   # the equations alone
 """
 
 from __future__ import annotations
@@ -75,6 +76,37 @@ def compare(main, new) -> dict:
     return gaps
 
 
+def check_equations(n: int = 1000, seed: int = 1) -> float:
+    """The (p, p') equations against (s, u) (docs/physics.md §5) at ``n``
+    random points of curves r(p) = (a p + b sin p, c p^2 + e cos 2p), whose
+    |r'| is not 1: du/dt = |r'| p'' + (r'.r''/|r'|) p'^2, nu = M / |r'|,
+    the friction power and the turning.  The largest relative difference."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    g = 9.81
+    worst = 0.0
+    for _ in range(n):
+        a, b, c, e = rng.uniform(0.5, 2.0, 4)
+        p, v, q = rng.uniform(-2.0, 2.0), rng.uniform(-3.0, 3.0), rng.uniform(-0.3, 0.3)
+        r1 = np.array([a + b * np.cos(p), 2 * c * p - 2 * e * np.sin(2 * p)])
+        r2 = np.array([-b * np.sin(p), 2 * c - 4 * e * np.cos(2 * p)])
+        speed = np.hypot(*r1)
+        cross = r1[0] * r2[1] - r1[1] * r2[0]
+        dot = r1 @ r2
+        # (s, u): the engine's form
+        sin_phi, cos_phi, kappa, u = r1[1] / speed, r1[0] / speed, cross / speed ** 3, speed * v
+        nu = kappa * u * u + g * cos_phi
+        u_dot = -g * sin_phi - q * nu
+        # (p, p')
+        m = cross * v * v + g * r1[0]
+        p_ddot = -(dot * v * v + g * r1[1] + q * m) / speed ** 2
+        pairs = ((speed * p_ddot + dot / speed * v * v, u_dot), (m / speed, nu),
+                 (q * m * v, q * nu * u), (cross / speed ** 2 * v, kappa * u))
+        worst = max(worst, *(abs(x - y) / max(1.0, abs(y)) for x, y in pairs))
+    return worst
+
+
 LEAN = "--lean" in sys.argv
 BLOCKS = []
 
@@ -83,6 +115,9 @@ def main(argv=None):
     import rampwork as rw
 
     argv = list(sys.argv[1:] if argv is None else argv)
+    if "--check" in argv:  # the equations only
+        print("largest relative difference, (p, p') against (s, u):", check_equations())
+        return
     if "--lean" in argv:
         argv.remove("--lean")
     while "--block" in argv:  # another BLOCK of the prototype's vector step
