@@ -96,12 +96,16 @@ def test_general_equals_specialised_everywhere(name, method, contact, effects):
     _tiers_agree(name, method, contact, effects)
 
 
-@pytest.mark.parametrize("method", ["dopri5", pytest.param("dop853", marks=pytest.mark.slow)])
-def test_a_trajectory_steps_as_it_would_alone(method):
+# dopri5 beside friction (the variant of the tier test above), dop853 (slow)
+# beside friction and drag: each integral the RMS may count, in one of them
+@pytest.mark.parametrize("method, effects", [
+    ("dopri5", ("friction",)),
+    pytest.param("dop853", ("friction", "drag_linear"), marks=pytest.mark.slow)])
+def test_a_trajectory_steps_as_it_would_alone(method, effects):
     """Without friction or drag, an adaptive trajectory's steps do not depend
     on its neighbours having them (before, the RMS counted their integrals)."""
     curve = CURVES["loop"]()
-    mixed = _arguments(curve, method, "one_sided", ("friction", "drag_linear"))
+    mixed = _arguments(curve, method, "one_sided", effects)
     bare = (mixed["mu_k"] == 0.0) & (mixed["drag_linear"] == 0.0)
     assert 20 < bare.sum() < N - 20
     together = prepare_curve_run(curve, kernel="specialised", **mixed).run()
