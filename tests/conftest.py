@@ -30,7 +30,7 @@ def reference():
 # spent compiling (printed at the end; the suite's time is mostly
 # compilation, so these are the numbers to keep down)
 # ------------------------------------------------------------------------------
-_COMPILED: dict[str, int] = {"specialised": 0, "general": 0}
+_COMPILED: dict[str, int] = {"specialised": 0, "general": 0, "curve": 0}
 _COMPILE_S: dict[str, float] = {}  # test file -> seconds in outermost numba compiles
 _RUNNING = {"file": "(collection and fixtures)", "depth": 0, "start": 0.0}
 
@@ -52,22 +52,25 @@ def _count_compilations() -> None:
                 seconds = time.perf_counter() - _RUNNING["start"]
                 _COMPILE_S[_RUNNING["file"]] = _COMPILE_S.get(_RUNNING["file"], 0.0) + seconds
             name = ev.data["dispatcher"].py_func.__name__
-            if name.startswith("run_tiles_"):  # one per kernel variant
+            if name.startswith("run_tiles_"):  # one per ramp kernel variant
                 _COMPILED["general" if "_runtime_" in name else "specialised"] += 1
+            elif name.startswith("curve_") and name.rsplit("_", 2)[-2] == "tiles":  # curve_lanes
+                _COMPILED["curve"] += 1
 
     event.register("numba:compile", Counter())
 
 
-#: test files that compile the most on an empty cache, heaviest first (the
-#: compile seconds this conftest prints, 2026-11-28): they run first, and
-#: xdist (--no-loadscope-reorder) hands out files in this order, so the last
-#: files to start are cheap and the workers finish together (in the order of
-#: their test counts, as xdist would, one worker ran 30 % longer than the other)
-HEAVIEST_FIRST = ("test_curves.py", "test_tiers.py", "test_drag.py", "test_curves_track_bare.py",
-                  "test_effects.py", "test_curve_tiers.py", "test_curve_lanes.py",
-                  "test_optimise.py", "test_curves_scene.py", "test_adaptive.py",
-                  "test_curves_record.py", "test_curves_clothoid.py", "test_runner.py",
-                  "test_properties.py", "test_curves_spline.py", "test_studies.py")
+#: test files that take the longest on an empty cache, heaviest first (the
+#: compile seconds this conftest prints, 2026-11-28, and the run time of the
+#: studies' and streaming tests): they run first, and xdist
+#: (--no-loadscope-reorder) hands out files in this order, so the last files
+#: to start are cheap and the workers finish together (in the order of their
+#: test counts, as xdist would, one worker compiled 30 % longer than the other)
+HEAVIEST_FIRST = ("test_effects.py", "test_tiers.py", "test_curves.py", "test_curves_track_bare.py",
+                  "test_drag.py", "test_curve_tiers.py", "test_properties.py", "test_curve_lanes.py",
+                  "test_studies.py", "test_streaming.py", "test_curves_record.py",
+                  "test_curves_joints.py", "test_optimise.py", "test_curves_hard.py",
+                  "test_adaptive.py", "test_runner.py", "test_curves_spline.py")
 
 
 def pytest_collection_modifyitems(config, items):
@@ -106,8 +109,9 @@ def pytest_testnodedown(node, error):
 def pytest_terminal_summary(terminalreporter, config):
     counts = {kind: config._rampwork_compiled[kind] + _COMPILED[kind] for kind in _COMPILED}
     terminalreporter.write_line(
-        f"kernel variants compiled in this run: {counts['specialised']} specialised, "
-        f"{counts['general']} general (the rest came from numba's disk cache)")
+        f"kernel variants compiled in this run: {counts['specialised']} specialised and "
+        f"{counts['general']} general ramp kernels, {counts['curve']} curve kernels "
+        f"(the rest came from numba's disk cache)")
     seconds = dict(config._rampwork_compile_s)
     for path, s in _COMPILE_S.items():
         seconds[path] = seconds.get(path, 0.0) + s
