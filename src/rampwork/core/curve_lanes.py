@@ -307,9 +307,12 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
                  "BLOCK": BLOCK_FIRST_ORDER if order == 1 else BLOCK}
     options = {} if cache else {"cache": False}
 
-    def build(template, suffix, **more):
+    def build(template, suffix, entry=False, **more):
+        # helpers only jitted code calls: link-only (jit.INTERNAL_OPTIONS),
+        # compiled into the entry points' modules, cached with them
         constants.update(more)
-        return specialise(template, f"{name}_{suffix}", dict(constants), **options)
+        return specialise(template, f"{name}_{suffix}", dict(constants),
+                          **(options if entry else {"internal": True}))
 
     code = step.__code__  # a step without the frame argument works too, one frame dearer
     constants["STEP_TAKES_FRAME"] = "frame" in code.co_varnames[:code.co_argcount]
@@ -329,6 +332,6 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
                             (_finish_lane, "finish_lane"), (_vector_step, "vector_step"),
                             (_vector_pass, "vector_pass"), (_run_tile, "run_tile")):
         constants[bound] = build(template, bound)
-    trace_one = build(curve_trace._trace_one, "trace",
+    trace_one = build(curve_trace._trace_one, "trace", entry=True,
                       sample=build(curve_trace._sample, "trace_sample"))
-    return CurveKernel(build(_run_tiles, "tiles"), trace_one)
+    return CurveKernel(build(_run_tiles, "tiles", entry=True), trace_one)
