@@ -97,7 +97,7 @@ def _event_trial(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight
     return trial, guess_before
 
 
-@jit
+@jit(internal=True)
 def bracket_after(clean, trial, p1, u1, nu1, lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu,
                   weight_lo, weight_hi, moved):
     """The bracket after the step of size ``trial`` (``p1``, ``u1``, ``nu1``
@@ -111,7 +111,7 @@ def bracket_after(clean, trial, p1, u1, nu1, lo, hi, lo_p, lo_u, lo_nu, hi_p, hi
             1.0, -1.0)
 
 
-@jit
+@jit(internal=True)
 def bracket_closed(lo, hi):
     """No float lies strictly between lo and hi: the event is located."""
     mid = 0.5 * (lo + hi)
@@ -171,7 +171,7 @@ def _lane_trial(lanes, i, locating, step_size, p, d, sn, p_lo, p_hi, joint):
     return trial if locating else step_size
 
 
-@jit
+@jit(internal=True)
 def _pick(lanes, index, begins, start, locating, narrowed):
     """Field ``index`` of the lanes: ``start`` where the bracket begins,
     ``narrowed`` where it is narrowed, else as it was (loaded whatever the

@@ -122,7 +122,7 @@ SMALLEST_STEP = 1e-14
 ROUGH_SHRINK = 0.5
 
 
-@jit
+@jit(internal=True)
 def fresh(lanes, i):
     """Lane i's next step is its trajectory's first or the first after an
     event: exempt from the rough-step check, since nu may start from 0 there
@@ -226,7 +226,7 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-@jit
+@jit(internal=True)
 def store_frame(lanes, i, frame):
     """The frame at lane i's P (``(sin phi, cos phi, kappa, dp/ds)``) into its fields."""
     lanes[SINNOW * LANES + i] = frame[0]
@@ -235,7 +235,7 @@ def store_frame(lanes, i, frame):
     lanes[DPDSNOW * LANES + i] = frame[3]
 
 
-@jit
+@jit(internal=True)
 def branch(p, d, joint, joint2):
     """JOINTS (joints ``joint`` < ``joint2``, NaN: none): ``(s3, ahead)``,
     s3 the piece a step from p in direction d starts on, or moves into from

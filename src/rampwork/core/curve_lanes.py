@@ -185,7 +185,7 @@ def _vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks):
             vector_step(lanes, block * BLOCK, shared, t_max, side, rtol, atol)
 
 
-@jit
+@jit(internal=True)
 def _move_lane(lanes, source, target):
     for field in range(N_FIELDS):
         lanes[field * LANES + target] = lanes[field * LANES + source]
