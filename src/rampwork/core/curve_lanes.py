@@ -25,7 +25,9 @@ tests compare with).  Tiles run over threads (core/threads.py).
 
 from __future__ import annotations
 
+import hashlib
 import math
+import types
 
 import numpy as np
 
@@ -276,6 +278,41 @@ class CurveKernel:
                   float(side), float(rtol), float(atol), out, status)
 
 
+#: link-only helpers built so far, by template and the values of the
+#: constants its code reads (see :func:`_helper`)
+_HELPERS: dict = {}
+
+
+def _names_read(code) -> set:
+    """The global names a function's code (nested code included) reads."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _names_read(const)
+    return names
+
+
+def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
+    """``template`` specialised on ``constants`` as a helper only jitted code
+    calls: link-only (jit.INTERNAL_OPTIONS), compiled into the kernels'
+    modules and cached with them.  ``shared``: one per process for the
+    constants its code reads (a step's stages serve every family with the
+    same effects, the rest rule every method, ...), named by their values,
+    so a kernel compiles only the helpers no kernel before it needed."""
+    if not shared:
+        return specialise(template, f"{name}_{suffix}", dict(constants), internal=True)
+    used = tuple(sorted((k, constants[k]) for k in _names_read(template.__code__)
+                        if k in constants))
+    key = (template, used)
+    if key not in _HELPERS:
+        label = repr([(k, getattr(getattr(v, "py_func", None), "__qualname__", v))
+                      for k, v in used])
+        digest = hashlib.sha256(label.encode()).hexdigest()[:12]
+        _HELPERS[key] = specialise(template, f"curve_{suffix}_{digest}", dict(constants),
+                                   internal=True)
+    return _HELPERS[key]
+
+
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
                        drag_quadratic: bool = False, joints: int = 0, cache: bool = True,
@@ -308,11 +345,10 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
     options = {} if cache else {"cache": False}
 
     def build(template, suffix, entry=False, **more):
-        # helpers only jitted code calls: link-only (jit.INTERNAL_OPTIONS),
-        # compiled into the entry points' modules, cached with them
         constants.update(more)
-        return specialise(template, f"{name}_{suffix}", dict(constants),
-                          **(options if entry else {"internal": True}))
+        if entry:
+            return specialise(template, f"{name}_{suffix}", dict(constants), **options)
+        return _helper(template, name, suffix, constants, shared=cache)
 
     code = step.__code__  # a step without the frame argument works too, one frame dearer
     constants["STEP_TAKES_FRAME"] = "frame" in code.co_varnames[:code.co_argcount]
