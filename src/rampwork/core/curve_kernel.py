@@ -121,13 +121,13 @@ SMALLEST_STEP = 1e-14
 ROUGH_SHRINK = 0.5
 
 
-@jit(internal=True)
+@jit(internal=True, refcount=False)
 def fresh(lanes, i):
     """Lane i's next step is its trajectory's first or the first after an
     event: exempt from the rough-step check, since nu may start from 0 there
     (a two-sided switch, a start at rest on a vertical tangent) and a
     stage's rounding would refuse every step size."""
-    return (lanes[STEPS * LANES + i] == 0.0) | (lanes[INROW * LANES + i] > 0.0)
+    return (field(lanes, STEPS, i) == 0.0) | (field(lanes, INROW, i) > 0.0)
 
 
 def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
@@ -225,7 +225,7 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-@jit(internal=True)
+@jit(internal=True, refcount=False)
 def store_frame(lanes, i, frame):
     """The frame at lane i's P (``(sin phi, cos phi, kappa, dp/ds)``) into its fields."""
     set_field(lanes, SINNOW, i, frame[0])

@@ -187,7 +187,7 @@ def _vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks):
             vector_step(lanes, block * BLOCK, shared, t_max, side, rtol, atol)
 
 
-@jit(internal=True)
+@jit(internal=True, refcount=False)
 def _move_lane(lanes, source, target):
     for index in range(N_FIELDS):
         set_field(lanes, index, target, field(lanes, index, source))
@@ -295,12 +295,16 @@ def _names_read(code) -> set:
 def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
     """``template`` specialised on ``constants`` as a helper only jitted code
     calls: link-only (jit.INTERNAL_OPTIONS), compiled into the kernels'
-    modules and cached with them.  ``shared``: one per process for the
-    constants its code reads (a step's stages serve every family with the
-    same effects, the rest rule every method, ...), named by their values,
-    so a kernel compiles only the helpers no kernel before it needed."""
+    modules and cached with them, and without reference counting (no
+    helper allocates; with it, the calls that pass the lane array kept the
+    vector loop, optimised inside the kernel's module, from vectorising:
+    4-7x slower).  ``shared``: one per process for the constants its code
+    reads (a step's stages serve every family with the same effects, the
+    rest rule every method, ...), named by their values, so a kernel
+    compiles only the helpers no kernel before it needed."""
     if not shared:
-        return specialise(template, f"{name}_{suffix}", dict(constants), internal=True)
+        return specialise(template, f"{name}_{suffix}", dict(constants), internal=True,
+                          refcount=False)
     used = tuple(sorted((k, constants[k]) for k in _names_read(template.__code__)
                         if k in constants))
     key = (template, used)
@@ -309,7 +313,7 @@ def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
                       for k, v in used])
         digest = hashlib.sha256(label.encode()).hexdigest()[:12]
         _HELPERS[key] = specialise(template, f"curve_{suffix}_{digest}", dict(constants),
-                                   internal=True)
+                                   internal=True, refcount=False)
     return _HELPERS[key]
 
 
