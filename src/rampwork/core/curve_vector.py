@@ -64,8 +64,9 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
     clean, committed by selects (see the module docstring); otherwise FLAG
     is set and nothing else changes.  The loop is here, not in the caller
     (a step this long is not inlined, and a loop that calls it stays
-    scalar), on a view from lane ``first`` on: LLVM sees its indices
-    nonnegative, so there is no wraparound to keep it from vectorising."""
+    scalar), on a view from lane ``first`` on, its fields loaded and stored
+    through curve_fields (constant offsets from the view, no wraparound code
+    to keep it from vectorising)."""
     lanes = all_lanes[first:]
     for i in range(BLOCK):
         running = field(lanes, STATUS, i) == st.NOT_RUN
