@@ -219,3 +219,21 @@ def test_a_point_anywhere_family_has_its_point_everywhere(name):
         np.testing.assert_array_equal(values["X"][:-1], p)
     # not the clothoid: its point's panels loop on p
     assert not Curve.create("clothoid", clothoid_parameter=1.0, length=2.0).spec.point_anywhere
+
+
+def test_a_helper_is_shared_by_kernels_whose_constants_it_reads_agree():
+    """core/curve_lanes._helper: one link-only helper per template and the
+    values of the constants its code reads; others do not split it."""
+    from rampwork.core import curve_steppers as cs
+
+    constants = {"FRICTION": True, "DRAG": False, "DRAG_LINEAR": False, "DRAG_QUADRATIC": False,
+                 "ONE_SIDED": True, "curve_frame": None}
+    first = curve_lanes._helper(cs._stage_from, "k1", "stage_from", constants, shared=True)
+    again = curve_lanes._helper(cs._stage_from, "k2", "stage_from",
+                                {**constants, "ONE_SIDED": False}, shared=True)
+    other = curve_lanes._helper(cs._stage_from, "k3", "stage_from",
+                                {**constants, "FRICTION": False}, shared=True)
+    assert again is first and other is not first
+    assert first.targetoptions["no_cpython_wrapper"] and first.targetoptions["_nrt"] is False
+    alone = curve_lanes._helper(cs._stage_from, "k4", "stage_from", constants, shared=False)
+    assert alone is not first

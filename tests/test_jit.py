@@ -81,3 +81,11 @@ def test_aligned_zeros_start_on_a_cache_line(size):
         return out
 
     assert not offsets(size, 40).any()
+
+
+def test_refcount_off_compiles_without_numba_reference_counting():
+    """``refcount=False``: numba's ``_nrt=False`` (a helper that allocates
+    nothing, passing arrays without incref/decref pairs)."""
+    helper = jit(lambda a, i: a[i] * 2.0, internal=True, refcount=False)
+    assert helper.targetoptions["_nrt"] is False
+    assert "_nrt" not in jit(lambda x: x, cache=False).targetoptions

@@ -30,7 +30,8 @@ from __future__ import annotations
 import math
 
 from .curve_kernel import (EV_GBEFORE, EV_HI, EV_HINU, EV_HIP, EV_HIU, EV_LO, EV_LONU, EV_LOP,
-                           EV_LOU, EV_MOVED, EV_WBEFORE, EV_WHI, EV_WLAST, EV_WLO, EVENT, LANES)
+                           EV_LOU, EV_MOVED, EV_WBEFORE, EV_WHI, EV_WLAST, EV_WLO, EVENT)
+from .curve_fields import field, set_field
 from .curve_steppers import normal_along_n
 from .jit import jit
 
@@ -97,7 +98,7 @@ def _event_trial(lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight
     return trial, guess_before
 
 
-@jit
+@jit(internal=True)
 def bracket_after(clean, trial, p1, u1, nu1, lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu,
                   weight_lo, weight_hi, moved):
     """The bracket after the step of size ``trial`` (``p1``, ``u1``, ``nu1``
@@ -111,7 +112,7 @@ def bracket_after(clean, trial, p1, u1, nu1, lo, hi, lo_p, lo_u, lo_nu, hi_p, hi
             1.0, -1.0)
 
 
-@jit
+@jit(internal=True)
 def bracket_closed(lo, hi):
     """No float lies strictly between lo and hi: the event is located."""
     mid = 0.5 * (lo + hi)
@@ -155,29 +156,29 @@ def _lane_trial(lanes, i, locating, step_size, p, d, sn, p_lo, p_hi, joint):
     """The size of lane i's next step: its bracket's next trial where it is
     ``locating`` (the bracket's widths and last guess advanced, as
     :func:`_locate_event` does before its step), else ``step_size``."""
-    lo = lanes[EV_LO * LANES + i]
-    hi = lanes[EV_HI * LANES + i]
-    width_before = lanes[EV_WBEFORE * LANES + i]
-    width_last = lanes[EV_WLAST * LANES + i]
-    guess_before = lanes[EV_GBEFORE * LANES + i]
+    lo = field(lanes, EV_LO, i)
+    hi = field(lanes, EV_HI, i)
+    width_before = field(lanes, EV_WBEFORE, i)
+    width_last = field(lanes, EV_WLAST, i)
+    guess_before = field(lanes, EV_GBEFORE, i)
     trial, guess = event_trial(
-        lo, hi, lanes[EV_LOP * LANES + i], lanes[EV_LOU * LANES + i], lanes[EV_LONU * LANES + i],
-        lanes[EV_HIP * LANES + i], lanes[EV_HIU * LANES + i], lanes[EV_HINU * LANES + i],
-        lanes[EV_WLO * LANES + i], lanes[EV_WHI * LANES + i], lanes[EV_MOVED * LANES + i],
+        lo, hi, field(lanes, EV_LOP, i), field(lanes, EV_LOU, i), field(lanes, EV_LONU, i),
+        field(lanes, EV_HIP, i), field(lanes, EV_HIU, i), field(lanes, EV_HINU, i),
+        field(lanes, EV_WLO, i), field(lanes, EV_WHI, i), field(lanes, EV_MOVED, i),
         width_before, guess_before, p, d, sn, p_lo, p_hi, joint)
-    lanes[EV_WBEFORE * LANES + i] = width_last if locating else width_before
-    lanes[EV_WLAST * LANES + i] = hi - lo if locating else width_last
-    lanes[EV_GBEFORE * LANES + i] = guess if locating else guess_before
+    set_field(lanes, EV_WBEFORE, i, width_last if locating else width_before)
+    set_field(lanes, EV_WLAST, i, hi - lo if locating else width_last)
+    set_field(lanes, EV_GBEFORE, i, guess if locating else guess_before)
     return trial if locating else step_size
 
 
-@jit
-def _pick(lanes, index, begins, start, locating, narrowed):
+@jit(internal=True, refcount=False)
+def _pick(lanes, index, i, begins, start, locating, narrowed):
     """Field ``index`` of the lanes: ``start`` where the bracket begins,
     ``narrowed`` where it is narrowed, else as it was (loaded whatever the
     case: a load under a condition keeps the lane loop from vectorising)."""
-    old = lanes[index]
-    lanes[index] = start if begins else (narrowed if locating else old)
+    old = field(lanes, index, i)
+    set_field(lanes, index, i, start if begins else (narrowed if locating else old))
 
 
 @jit
@@ -188,25 +189,25 @@ def lane_bracket(lanes, i, locating, begins, clean, h, p1, u1, nu1, p, u, nu):
     ``begins`` an event (not clean), as :func:`_locate_event` starts it;
     whether the lane locates an event now with its bracket closed."""
     lo, hi, lo_p, lo_u, lo_nu, hi_p, hi_u, hi_nu, weight_lo, weight_hi, moved = bracket_after(
-        clean, h, p1, u1, nu1, lanes[EV_LO * LANES + i], lanes[EV_HI * LANES + i],
-        lanes[EV_LOP * LANES + i], lanes[EV_LOU * LANES + i], lanes[EV_LONU * LANES + i],
-        lanes[EV_HIP * LANES + i], lanes[EV_HIU * LANES + i], lanes[EV_HINU * LANES + i],
-        lanes[EV_WLO * LANES + i], lanes[EV_WHI * LANES + i], lanes[EV_MOVED * LANES + i])
-    _pick(lanes, EV_LO * LANES + i, begins, 0.0, locating, lo)
-    _pick(lanes, EV_HI * LANES + i, begins, h, locating, hi)
-    _pick(lanes, EV_LOP * LANES + i, begins, p, locating, lo_p)
-    _pick(lanes, EV_LOU * LANES + i, begins, u, locating, lo_u)
-    _pick(lanes, EV_LONU * LANES + i, begins, nu, locating, lo_nu)
-    _pick(lanes, EV_HIP * LANES + i, begins, p1, locating, hi_p)
-    _pick(lanes, EV_HIU * LANES + i, begins, u1, locating, hi_u)
-    _pick(lanes, EV_HINU * LANES + i, begins, nu1, locating, hi_nu)
-    _pick(lanes, EV_WLO * LANES + i, begins, 1.0, locating, weight_lo)
-    _pick(lanes, EV_WHI * LANES + i, begins, 1.0, locating, weight_hi)
-    _pick(lanes, EV_MOVED * LANES + i, begins, 0.0, locating, moved)  # +1.0: lo moved last
+        clean, h, p1, u1, nu1, field(lanes, EV_LO, i), field(lanes, EV_HI, i),
+        field(lanes, EV_LOP, i), field(lanes, EV_LOU, i), field(lanes, EV_LONU, i),
+        field(lanes, EV_HIP, i), field(lanes, EV_HIU, i), field(lanes, EV_HINU, i),
+        field(lanes, EV_WLO, i), field(lanes, EV_WHI, i), field(lanes, EV_MOVED, i))
+    _pick(lanes, EV_LO, i, begins, 0.0, locating, lo)
+    _pick(lanes, EV_HI, i, begins, h, locating, hi)
+    _pick(lanes, EV_LOP, i, begins, p, locating, lo_p)
+    _pick(lanes, EV_LOU, i, begins, u, locating, lo_u)
+    _pick(lanes, EV_LONU, i, begins, nu, locating, lo_nu)
+    _pick(lanes, EV_HIP, i, begins, p1, locating, hi_p)
+    _pick(lanes, EV_HIU, i, begins, u1, locating, hi_u)
+    _pick(lanes, EV_HINU, i, begins, nu1, locating, hi_nu)
+    _pick(lanes, EV_WLO, i, begins, 1.0, locating, weight_lo)
+    _pick(lanes, EV_WHI, i, begins, 1.0, locating, weight_hi)
+    _pick(lanes, EV_MOVED, i, begins, 0.0, locating, moved)  # +1.0: lo moved last
     # (:func:`_lane_trial` advanced these where the bracket is narrowed)
-    _pick(lanes, EV_WBEFORE * LANES + i, begins, math.inf, False, 0.0)
-    _pick(lanes, EV_WLAST * LANES + i, begins, math.inf, False, 0.0)
-    _pick(lanes, EV_GBEFORE * LANES + i, begins, math.nan, False, 0.0)
+    _pick(lanes, EV_WBEFORE, i, begins, math.inf, False, 0.0)
+    _pick(lanes, EV_WLAST, i, begins, math.inf, False, 0.0)
+    _pick(lanes, EV_GBEFORE, i, begins, math.nan, False, 0.0)
     on = locating | begins
-    _pick(lanes, EVENT * LANES + i, on, 1.0, False, 0.0)
-    return on & bracket_closed(lanes[EV_LO * LANES + i], lanes[EV_HI * LANES + i])
+    _pick(lanes, EVENT, i, on, 1.0, False, 0.0)
+    return on & bracket_closed(field(lanes, EV_LO, i), field(lanes, EV_HI, i))

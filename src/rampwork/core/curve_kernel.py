@@ -48,6 +48,7 @@ from . import status as st
 from .control import (ERROR_FLOOR, ERROR_TINY, FACTOR_MAX, FACTOR_MIN, SAFETY, exp2_approx,
                       log2_approx)
 from .curve_steppers import CURVE_STEPPERS, normal_along_n  # noqa: F401 (CURVE_STEPPERS: public)
+from .curve_fields import LANES, field, set_field
 from .curve_track import branch_near
 from .jit import fma, jit
 
@@ -109,8 +110,6 @@ N_FIELDS = 58
 #: the bracket's fields, in curve_events.py's order of its state
 BRACKET = (EV_LO, EV_HI, EV_LOP, EV_LOU, EV_LONU, EV_HIP, EV_HIU, EV_HINU, EV_WLO, EV_WHI,
            EV_MOVED, EV_WBEFORE, EV_WLAST, EV_GBEFORE)
-#: lanes per block (the vector loop's width); results do not depend on it
-LANES = 64
 #: the empty lane's STATUS
 EMPTY = -1.0
 #: events in a row without a full step between them before a trajectory is declared diverged
@@ -122,13 +121,13 @@ SMALLEST_STEP = 1e-14
 ROUGH_SHRINK = 0.5
 
 
-@jit
+@jit(internal=True, refcount=False)
 def fresh(lanes, i):
     """Lane i's next step is its trajectory's first or the first after an
     event: exempt from the rough-step check, since nu may start from 0 there
     (a two-sided switch, a start at rest on a vertical tangent) and a
     stage's rounding would refuse every step size."""
-    return (lanes[STEPS * LANES + i] == 0.0) | (lanes[INROW * LANES + i] > 0.0)
+    return (field(lanes, STEPS, i) == 0.0) | (field(lanes, INROW, i) > 0.0)
 
 
 def _try_step(p, u, q, d, sn, h, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
@@ -226,16 +225,16 @@ def _contact_sign(nu, kappa, side):
     return -1.0
 
 
-@jit
+@jit(internal=True, refcount=False)
 def store_frame(lanes, i, frame):
     """The frame at lane i's P (``(sin phi, cos phi, kappa, dp/ds)``) into its fields."""
-    lanes[SINNOW * LANES + i] = frame[0]
-    lanes[COSNOW * LANES + i] = frame[1]
-    lanes[KAPNOW * LANES + i] = frame[2]
-    lanes[DPDSNOW * LANES + i] = frame[3]
+    set_field(lanes, SINNOW, i, frame[0])
+    set_field(lanes, COSNOW, i, frame[1])
+    set_field(lanes, KAPNOW, i, frame[2])
+    set_field(lanes, DPDSNOW, i, frame[3])
 
 
-@jit
+@jit(internal=True)
 def branch(p, d, joint, joint2):
     """JOINTS (joints ``joint`` < ``joint2``, NaN: none): ``(s3, ahead)``,
     s3 the piece a step from p in direction d starts on, or moves into from
@@ -277,42 +276,42 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
     An adaptive step is accepted where its error norm is <= 1, with the ramp
     kernel's PI controller (control.py); a step with an event is judged at
     the event, after it is located (its error is that of the shorter step)."""
-    p = lanes[P * LANES + i]
-    u = lanes[U * LANES + i]
-    d = lanes[D * LANES + i]
-    sn = lanes[SN * LANES + i]
-    t = lanes[T * LANES + i]
-    mu_k = lanes[MUK * LANES + i]
-    g = lanes[G * LANES + i]
-    s0 = lanes[S0 * LANES + i]
-    s1 = lanes[S1 * LANES + i]
-    s2 = lanes[S2 * LANES + i]
-    s3 = lanes[BRANCH * LANES + i]
-    p_lo = lanes[LO * LANES + i]
-    p_hi = lanes[HI * LANES + i]
-    b = lanes[B * LANES + i]
-    c = lanes[C * LANES + i]
-    joint = lanes[JOINT * LANES + i]
-    h_next = lanes[HN * LANES + i]
+    p = field(lanes, P, i)
+    u = field(lanes, U, i)
+    d = field(lanes, D, i)
+    sn = field(lanes, SN, i)
+    t = field(lanes, T, i)
+    mu_k = field(lanes, MUK, i)
+    g = field(lanes, G, i)
+    s0 = field(lanes, S0, i)
+    s1 = field(lanes, S1, i)
+    s2 = field(lanes, S2, i)
+    s3 = field(lanes, BRANCH, i)
+    p_lo = field(lanes, LO, i)
+    p_hi = field(lanes, HI, i)
+    b = field(lanes, B, i)
+    c = field(lanes, C, i)
+    joint = field(lanes, JOINT, i)
+    h_next = field(lanes, HN, i)
     if t >= t_max:
-        lanes[STATUS * LANES + i] = st.TIMEOUT
+        set_field(lanes, STATUS, i, st.TIMEOUT)
         return
     step_size = h_next if t + h_next <= t_max else t_max - t
     q = d * mu_k * sn
     if JOINTS == MANY_JOINTS:  # s3 from the last step's (core/curve_track.py)
-        s3, joint = branch_near(p, d, shared, int(joint), int(lanes[JOINT2 * LANES + i]), s3)
-        lanes[BRANCH * LANES + i] = s3
+        s3, joint = branch_near(p, d, shared, int(joint), int(field(lanes, JOINT2, i)), s3)
+        set_field(lanes, BRANCH, i, s3)
     elif JOINTS == 2:
-        s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
-        lanes[BRANCH * LANES + i] = s3
+        s3, joint = branch(p, d, joint, field(lanes, JOINT2, i))
+        set_field(lanes, BRANCH, i, s3)
     elif JOINTS:  # one joint: the only one a step may cross
         s3 = branch(p, d, joint, math.nan)[0]
-        lanes[BRANCH * LANES + i] = s3
+        set_field(lanes, BRANCH, i, s3)
     frame = curve_frame(p, s0, s1, s2, s3, shared)
-    located = lanes[EVENT * LANES + i] != 0.0  # by the lanes: the step of EV_HI is the event's
+    located = field(lanes, EVENT, i) != 0.0  # by the lanes: the step of EV_HI is the event's
     if located:
-        step_size = lanes[EV_HI * LANES + i]
-        lanes[EVENT * LANES + i] = 0.0
+        step_size = field(lanes, EV_HI, i)
+        set_field(lanes, EVENT, i, 0.0)
     p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough = try_step(
         p, u, q, d, sn, step_size, g, s0, s1, s2, s3, shared, b, c, p_lo, p_hi, joint, rtol, atol,
         frame)
@@ -323,12 +322,12 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
         # locate_event below finds it on the end's sign alone
         if ADAPTIVE:
             if err <= 1.0:  # (a step rejected for its error shrinks as usual, below)
-                lanes[NREJ * LANES + i] += 1.0
+                set_field(lanes, NREJ, i, field(lanes, NREJ, i) + 1.0)
                 h_next = step_size * ROUGH_SHRINK
-                lanes[HN * LANES + i] = h_next
-                lanes[REJB * LANES + i] = 1.0
+                set_field(lanes, HN, i, h_next)
+                set_field(lanes, REJB, i, 1.0)
                 if not (h_next > SMALLEST_STEP * max(t, 1.0)):
-                    lanes[STATUS * LANES + i] = st.DIVERGED
+                    set_field(lanes, STATUS, i, st.DIVERGED)
                 return
         else:
             # a fixed step keeps its size: the shorter step only probes the
@@ -346,72 +345,72 @@ def _iterate(lanes, i, shared, t_max, side, rtol, atol):
             atol, frame, (p1, u1, dw, dk, dx, dwd, err, nu1, clean, frame1, rough))
     if ADAPTIVE:
         if not (err <= 1.0):  # rejected (NaN included): shrink and try again
-            lanes[NREJ * LANES + i] += 1.0
+            set_field(lanes, NREJ, i, field(lanes, NREJ, i) + 1.0)
             h_next = step_size * rejected_factor(err)
-            lanes[HN * LANES + i] = h_next
-            lanes[REJB * LANES + i] = 1.0
+            set_field(lanes, HN, i, h_next)
+            set_field(lanes, REJB, i, 1.0)
             if not (h_next > SMALLEST_STEP * max(t, 1.0)):
-                lanes[STATUS * LANES + i] = st.DIVERGED
+                set_field(lanes, STATUS, i, st.DIVERGED)
             return
         if clean:  # an event step's size says nothing of the next one's
-            lanes[HN * LANES + i] = step_size * accepted_factor(
-                err, lanes[EPREV * LANES + i], lanes[REJB * LANES + i] != 0.0)
-            lanes[EPREV * LANES + i] = max(err, ERROR_FLOOR)
-        lanes[REJB * LANES + i] = 0.0
-    in_row = 0.0 if clean else lanes[INROW * LANES + i] + 1.0
-    lanes[INROW * LANES + i] = in_row
+            set_field(lanes, HN, i, step_size * accepted_factor(
+                err, field(lanes, EPREV, i), field(lanes, REJB, i) != 0.0))
+            set_field(lanes, EPREV, i, max(err, ERROR_FLOOR))
+        set_field(lanes, REJB, i, 0.0)
+    in_row = 0.0 if clean else field(lanes, INROW, i) + 1.0
+    set_field(lanes, INROW, i, in_row)
     # nu may be +-inf at a cusp (infinite curvature, frictionless): not NaN
     finite = (math.isfinite(p1) and math.isfinite(u1) and math.isfinite(dw)
               and nu1 == nu1 and math.isfinite(dk))
     if not finite or in_row > MAX_EVENTS_IN_ROW:
-        lanes[STATUS * LANES + i] = st.DIVERGED
+        set_field(lanes, STATUS, i, st.DIVERGED)
         return
-    lanes[T * LANES + i] = t + step_size
-    lanes[STEPS * LANES + i] += 1.0
-    lanes[WORK * LANES + i] += dw
-    lanes[CURV * LANES + i] += dk
-    lanes[DISP * LANES + i] += dx
-    lanes[PATH * LANES + i] += d * dx
+    set_field(lanes, T, i, t + step_size)
+    set_field(lanes, STEPS, i, field(lanes, STEPS, i) + 1.0)
+    set_field(lanes, WORK, i, field(lanes, WORK, i) + dw)
+    set_field(lanes, CURV, i, field(lanes, CURV, i) + dk)
+    set_field(lanes, DISP, i, field(lanes, DISP, i) + dx)
+    set_field(lanes, PATH, i, field(lanes, PATH, i) + (d * dx))
     if DRAG:
-        lanes[DRAGW * LANES + i] += dwd
-    lanes[NUMIN * LANES + i] = min(lanes[NUMIN * LANES + i], side * nu1)
+        set_field(lanes, DRAGW, i, field(lanes, DRAGW, i) + dwd)
+    set_field(lanes, NUMIN, i, min(field(lanes, NUMIN, i), side * nu1))
     # an exit step ends on the end (p1 passes it by the bisection's last float)
-    dx_step, x_now = x_travelled(p, lanes[XNOW * LANES + i], lanes[COSNOW * LANES + i],
+    dx_step, x_now = x_travelled(p, field(lanes, XNOW, i), field(lanes, COSNOW, i),
                                  min(max(p1, p_lo), p_hi), frame1[1], s0, s1, s2, s3, shared)
-    lanes[XNOW * LANES + i] = x_now
+    set_field(lanes, XNOW, i, x_now)
     store_frame(lanes, i, frame1)
-    lanes[PATHX * LANES + i] += dx_step
-    lanes[U * LANES + i] = u1
+    set_field(lanes, PATHX, i, field(lanes, PATHX, i) + dx_step)
+    set_field(lanes, U, i, u1)
     if clean:
-        lanes[P * LANES + i] = p1
+        set_field(lanes, P, i, p1)
         return
     if not (p1 <= p_hi):  # exits first: the end is where the trajectory ends
-        lanes[P * LANES + i] = p_hi
-        lanes[STATUS * LANES + i] = st.EXITED
+        set_field(lanes, P, i, p_hi)
+        set_field(lanes, STATUS, i, st.EXITED)
         return
     if not (p1 >= p_lo):
-        lanes[P * LANES + i] = p_lo
-        lanes[STATUS * LANES + i] = st.EXITED
+        set_field(lanes, P, i, p_lo)
+        set_field(lanes, STATUS, i, st.EXITED)
         return
-    lanes[P * LANES + i] = p1
+    set_field(lanes, P, i, p1)
     if not (sn * nu1 > 0.0):
         if ONE_SIDED:
-            lanes[PLIFT * LANES + i] = p1
-            lanes[STATUS * LANES + i] = st.LIFTED_OFF
+            set_field(lanes, PLIFT, i, p1)
+            set_field(lanes, STATUS, i, st.LIFTED_OFF)
             return
         sn = -sn
-        lanes[SN * LANES + i] = sn
+        set_field(lanes, SN, i, sn)
     if not (d * u1 > 0.0):
-        lanes[U * LANES + i] = 0.0
-        d, status = rest_rule(p1, mu_k, lanes[MUS * LANES + i], g, side, s0, s1, s2, s3, shared)
-        lanes[D * LANES + i] = d
-        lanes[STATUS * LANES + i] = status
+        set_field(lanes, U, i, 0.0)
+        d, status = rest_rule(p1, mu_k, field(lanes, MUS, i), g, side, s0, s1, s2, s3, shared)
+        set_field(lanes, D, i, d)
+        set_field(lanes, STATUS, i, status)
         if status == st.NOT_RUN:
-            lanes[NREV * LANES + i] += 1.0
+            set_field(lanes, NREV, i, field(lanes, NREV, i) + 1.0)
             _, cos_r, kappa_r, _ = curve_frame(p1, s0, s1, s2, s3, shared)
-            lanes[SN * LANES + i] = contact_sign(g * cos_r, kappa_r, side)
+            set_field(lanes, SN, i, contact_sign(g * cos_r, kappa_r, side))
         elif status == st.LIFTED_OFF:
-            lanes[PLIFT * LANES + i] = p1
+            set_field(lanes, PLIFT, i, p1)
 
 
 def empty_outputs(n: int) -> tuple[np.ndarray, np.ndarray]:

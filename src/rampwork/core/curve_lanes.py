@@ -25,7 +25,9 @@ tests compare with).  Tiles run over threads (core/threads.py).
 
 from __future__ import annotations
 
+import hashlib
 import math
+import types
 
 import numpy as np
 
@@ -40,7 +42,7 @@ from .curve_kernel import (  # the lane layout, the inputs' and outputs' rows
     JOINT, JOINT2, KAPPA0, LANES, LO, MUK, MUS, N_FIELDS, NREJ, NREV, NUMIN, O_BAL, O_DISP,
     O_KMEAN, O_NREV, O_NUMIN, O_P, O_PATH, O_PLIFT, O_REJECTED, O_STEPS, O_T, O_U, O_W, O_WD,
     O_WE, O_X, O_XLIFT, O_XPATH, O_Y, O_YLIFT, P, PATH, PATHX, PLIFT, REJB, S0, S1, S2, SN,
-    STATUS, STEPS, T, TRAJ, U, WORK, XNOW, MANY_JOINTS, store_frame)
+    STATUS, STEPS, T, TRAJ, U, WORK, XNOW, MANY_JOINTS, field, set_field, store_frame)
 from .curve_track import joints_behind
 from .curve_steppers import CURVE_STEPPERS, _dop853_stages, _stage, _stage_from, normal_along_n
 from .curve_vector import BLOCK, BLOCK_FIRST_ORDER, _vector_step
@@ -95,61 +97,61 @@ def _start_lane(lanes, i, inputs, j, shared, h, side):
         p_lift = p
     if status == st.NOT_RUN and ((d > 0.0 and p >= p_hi) or (d < 0.0 and p <= p_lo)):
         status = st.EXITED
-    for field in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG,
+    for index in (WORK, CURV, DISP, PATH, PATHX, DRAGW, T, STEPS, NREJ, INROW, NREV, REJB, FLAG,
                   EVENT):
-        lanes[field * LANES + i] = 0.0
-    lanes[P * LANES + i] = p
-    lanes[U * LANES + i] = u
-    lanes[D * LANES + i] = d
-    lanes[SN * LANES + i] = contact_sign(nu, kappa0, side)
-    lanes[HN * LANES + i] = h
-    lanes[EPREV * LANES + i] = ERROR_FLOOR
-    lanes[NUMIN * LANES + i] = side * nu
-    lanes[XNOW * LANES + i] = x_now
+        set_field(lanes, index, i, 0.0)
+    set_field(lanes, P, i, p)
+    set_field(lanes, U, i, u)
+    set_field(lanes, D, i, d)
+    set_field(lanes, SN, i, contact_sign(nu, kappa0, side))
+    set_field(lanes, HN, i, h)
+    set_field(lanes, EPREV, i, ERROR_FLOOR)
+    set_field(lanes, NUMIN, i, side * nu)
+    set_field(lanes, XNOW, i, x_now)
     store_frame(lanes, i, frame0)
-    lanes[PLIFT * LANES + i] = p_lift
-    lanes[STATUS * LANES + i] = status
-    lanes[TRAJ * LANES + i] = j
-    lanes[E0 * LANES + i] = fma(g, y0, 0.5 * u * u)
-    lanes[KAPPA0 * LANES + i] = kappa0
-    lanes[BRANCH * LANES + i] = s3
-    lanes[MUK * LANES + i] = mu_k
-    lanes[MUS * LANES + i] = mu_s
-    lanes[G * LANES + i] = g
-    lanes[S0 * LANES + i] = s0
-    lanes[S1 * LANES + i] = s1
-    lanes[S2 * LANES + i] = s2
-    lanes[LO * LANES + i] = p_lo
-    lanes[HI * LANES + i] = p_hi
-    lanes[B * LANES + i] = inputs[I_B, j]
-    lanes[C * LANES + i] = inputs[I_C, j]
-    lanes[JOINT * LANES + i] = inputs[I_JOINT, j]
-    lanes[JOINT2 * LANES + i] = inputs[I_JOINT2, j]
+    set_field(lanes, PLIFT, i, p_lift)
+    set_field(lanes, STATUS, i, status)
+    set_field(lanes, TRAJ, i, j)
+    set_field(lanes, E0, i, fma(g, y0, 0.5 * u * u))
+    set_field(lanes, KAPPA0, i, kappa0)
+    set_field(lanes, BRANCH, i, s3)
+    set_field(lanes, MUK, i, mu_k)
+    set_field(lanes, MUS, i, mu_s)
+    set_field(lanes, G, i, g)
+    set_field(lanes, S0, i, s0)
+    set_field(lanes, S1, i, s1)
+    set_field(lanes, S2, i, s2)
+    set_field(lanes, LO, i, p_lo)
+    set_field(lanes, HI, i, p_hi)
+    set_field(lanes, B, i, inputs[I_B, j])
+    set_field(lanes, C, i, inputs[I_C, j])
+    set_field(lanes, JOINT, i, inputs[I_JOINT, j])
+    set_field(lanes, JOINT2, i, inputs[I_JOINT2, j])
     if JOINTS == MANY_JOINTS:  # the branch that curve_track.branch_near keeps up
-        lanes[BRANCH * LANES + i] = 1.0 + joints_behind(
-            p, d, shared, int(inputs[I_JOINT, j]), int(inputs[I_JOINT2, j]))
+        set_field(lanes, BRANCH, i, 1.0 + joints_behind(
+            p, d, shared, int(inputs[I_JOINT, j]), int(inputs[I_JOINT2, j])))
 
 
 def _finish_lane(lanes, i, inputs, shared, out, status):
     """Write lane i's trajectory (finished) to its column of ``out`` and
     ``status``; the lane becomes empty."""
-    j = int(lanes[TRAJ * LANES + i])
-    p = lanes[P * LANES + i]
-    u = lanes[U * LANES + i]
-    g = lanes[G * LANES + i]
-    s0 = lanes[S0 * LANES + i]
-    s1 = lanes[S1 * LANES + i]
-    s2 = lanes[S2 * LANES + i]
-    s3 = lanes[BRANCH * LANES + i]
-    work = lanes[WORK * LANES + i]
-    drag_work = lanes[DRAGW * LANES + i]
-    path = lanes[PATH * LANES + i]
-    p_lift = lanes[PLIFT * LANES + i]
-    energy_start = lanes[E0 * LANES + i]
+    j = int(field(lanes, TRAJ, i))
+    p = field(lanes, P, i)
+    u = field(lanes, U, i)
+    g = field(lanes, G, i)
+    s0 = field(lanes, S0, i)
+    s1 = field(lanes, S1, i)
+    s2 = field(lanes, S2, i)
+    s3 = field(lanes, BRANCH, i)
+    work = field(lanes, WORK, i)
+    drag_work = field(lanes, DRAGW, i)
+    path = field(lanes, PATH, i)
+    p_lift = field(lanes, PLIFT, i)
+    energy_start = field(lanes, E0, i)
     m = inputs[I_M, j]
     x_end, y_end = curve_point(p, s0, s1, s2, s3, shared)
     energy_end = fma(g, y_end, 0.5 * u * u)
-    out[O_T, j] = lanes[T * LANES + i]
+    out[O_T, j] = field(lanes, T, i)
     out[O_P, j] = p
     out[O_U, j] = u
     out[O_X, j] = x_end
@@ -158,11 +160,11 @@ def _finish_lane(lanes, i, inputs, shared, out, status):
     out[O_WE, j] = m * (energy_start - energy_end)
     out[O_WD, j] = m * drag_work
     out[O_BAL, j] = m * (work + drag_work - (energy_start - energy_end))
-    out[O_DISP, j] = lanes[DISP * LANES + i]
+    out[O_DISP, j] = field(lanes, DISP, i)
     out[O_PATH, j] = path
-    out[O_XPATH, j] = lanes[PATHX * LANES + i]
-    out[O_KMEAN, j] = lanes[CURV * LANES + i] / path if path > 0.0 else lanes[KAPPA0 * LANES + i]
-    out[O_NUMIN, j] = m * lanes[NUMIN * LANES + i]
+    out[O_XPATH, j] = field(lanes, PATHX, i)
+    out[O_KMEAN, j] = field(lanes, CURV, i) / path if path > 0.0 else field(lanes, KAPPA0, i)
+    out[O_NUMIN, j] = m * field(lanes, NUMIN, i)
     out[O_PLIFT, j] = p_lift
     if p_lift == p_lift:
         x_lift, y_lift = curve_point(p_lift, s0, s1, s2, s3, shared)
@@ -171,11 +173,11 @@ def _finish_lane(lanes, i, inputs, shared, out, status):
     else:
         out[O_XLIFT, j] = math.nan
         out[O_YLIFT, j] = math.nan
-    out[O_NREV, j] = lanes[NREV * LANES + i]
-    out[O_STEPS, j] = lanes[STEPS * LANES + i]
-    out[O_REJECTED, j] = lanes[NREJ * LANES + i]
-    status[j] = int(lanes[STATUS * LANES + i])
-    lanes[STATUS * LANES + i] = EMPTY
+    out[O_NREV, j] = field(lanes, NREV, i)
+    out[O_STEPS, j] = field(lanes, STEPS, i)
+    out[O_REJECTED, j] = field(lanes, NREJ, i)
+    status[j] = int(field(lanes, STATUS, i))
+    set_field(lanes, STATUS, i, EMPTY)
 
 
 def _vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks):
@@ -185,10 +187,10 @@ def _vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks):
             vector_step(lanes, block * BLOCK, shared, t_max, side, rtol, atol)
 
 
-@jit
+@jit(internal=True, refcount=False)
 def _move_lane(lanes, source, target):
-    for field in range(N_FIELDS):
-        lanes[field * LANES + target] = lanes[field * LANES + source]
+    for index in range(N_FIELDS):
+        set_field(lanes, index, target, field(lanes, index, source))
 
 
 def _run_tile(begin, end, lanes, inputs, shared, h, t_max, side, rtol, atol, out, status):
@@ -196,23 +198,23 @@ def _run_tile(begin, end, lanes, inputs, shared, h, t_max, side, rtol, atol, out
     if not VECTOR:
         for j in range(begin, end):
             start_lane(lanes, 0, inputs, j, shared, h, side)
-            while lanes[STATUS * LANES] == st.NOT_RUN:
+            while field(lanes, STATUS, 0) == st.NOT_RUN:
                 iterate(lanes, 0, shared, t_max, side, rtol, atol)
             finish_lane(lanes, 0, inputs, shared, out, status)
         return
     for i in range(LANES):
-        lanes[STATUS * LANES + i] = EMPTY
-        lanes[FLAG * LANES + i] = 0.0
+        set_field(lanes, STATUS, i, EMPTY)
+        set_field(lanes, FLAG, i, 0.0)
     next_j = begin
     n_blocks = LANES // BLOCK
     while True:
         running = 0
         for i in range(n_blocks * BLOCK):
-            state = lanes[STATUS * LANES + i]
-            if state == st.NOT_RUN and lanes[FLAG * LANES + i] != 0.0:
-                lanes[FLAG * LANES + i] = 0.0
+            state = field(lanes, STATUS, i)
+            if state == st.NOT_RUN and field(lanes, FLAG, i) != 0.0:
+                set_field(lanes, FLAG, i, 0.0)
                 iterate(lanes, i, shared, t_max, side, rtol, atol)
-                state = lanes[STATUS * LANES + i]
+                state = field(lanes, STATUS, i)
             while state != st.NOT_RUN:
                 if state != EMPTY:
                     finish_lane(lanes, i, inputs, shared, out, status)
@@ -220,7 +222,7 @@ def _run_tile(begin, end, lanes, inputs, shared, h, t_max, side, rtol, atol, out
                     break
                 start_lane(lanes, i, inputs, next_j, shared, h, side)
                 next_j += 1
-                state = lanes[STATUS * LANES + i]
+                state = field(lanes, STATUS, i)
             if state == st.NOT_RUN:
                 running += 1
         if running == 0:
@@ -229,10 +231,10 @@ def _run_tile(begin, end, lanes, inputs, shared, h, t_max, side, rtol, atol, out
             # nothing left to load: running lanes to the front, fewer blocks
             target = 0
             for i in range(n_blocks * BLOCK):
-                if lanes[STATUS * LANES + i] == st.NOT_RUN:
+                if field(lanes, STATUS, i) == st.NOT_RUN:
                     if i != target:
                         _move_lane(lanes, i, target)
-                        lanes[STATUS * LANES + i] = EMPTY
+                        set_field(lanes, STATUS, i, EMPTY)
                     target += 1
             n_blocks = (running + BLOCK - 1) // BLOCK
         vector_pass(lanes, shared, t_max, side, rtol, atol, n_blocks)
@@ -276,6 +278,45 @@ class CurveKernel:
                   float(side), float(rtol), float(atol), out, status)
 
 
+#: link-only helpers built so far, by template and the values of the
+#: constants its code reads (see :func:`_helper`)
+_HELPERS: dict = {}
+
+
+def _names_read(code) -> set:
+    """The global names a function's code (nested code included) reads."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _names_read(const)
+    return names
+
+
+def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
+    """``template`` specialised on ``constants`` as a helper only jitted code
+    calls: link-only (jit.INTERNAL_OPTIONS), compiled into the kernels'
+    modules and cached with them, and without reference counting (no
+    helper allocates; with it, the calls that pass the lane array kept the
+    vector loop, optimised inside the kernel's module, from vectorising:
+    4-7x slower).  ``shared``: one per process for the constants its code
+    reads (a step's stages serve every family with the same effects, the
+    rest rule every method, ...), named by their values, so a kernel
+    compiles only the helpers no kernel before it needed."""
+    if not shared:
+        return specialise(template, f"{name}_{suffix}", dict(constants), internal=True,
+                          refcount=False)
+    used = tuple(sorted((k, constants[k]) for k in _names_read(template.__code__)
+                        if k in constants))
+    key = (template, used)
+    if key not in _HELPERS:
+        label = repr([(k, getattr(getattr(v, "py_func", None), "__qualname__", v))
+                      for k, v in used])
+        digest = hashlib.sha256(label.encode()).hexdigest()[:12]
+        _HELPERS[key] = specialise(template, f"curve_{suffix}_{digest}", dict(constants),
+                                   internal=True, refcount=False)
+    return _HELPERS[key]
+
+
 def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool = True,
                        friction: bool = True, drag_linear: bool = False,
                        drag_quadratic: bool = False, joints: int = 0, cache: bool = True,
@@ -307,9 +348,11 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
                  "BLOCK": BLOCK_FIRST_ORDER if order == 1 else BLOCK}
     options = {} if cache else {"cache": False}
 
-    def build(template, suffix, **more):
+    def build(template, suffix, entry=False, **more):
         constants.update(more)
-        return specialise(template, f"{name}_{suffix}", dict(constants), **options)
+        if entry:
+            return specialise(template, f"{name}_{suffix}", dict(constants), **options)
+        return _helper(template, name, suffix, constants, shared=cache)
 
     code = step.__code__  # a step without the frame argument works too, one frame dearer
     constants["STEP_TAKES_FRAME"] = "frame" in code.co_varnames[:code.co_argcount]
@@ -329,6 +372,6 @@ def build_curve_kernel(key: str, frame, point, method: str, *, one_sided: bool =
                             (_finish_lane, "finish_lane"), (_vector_step, "vector_step"),
                             (_vector_pass, "vector_pass"), (_run_tile, "run_tile")):
         constants[bound] = build(template, bound)
-    trace_one = build(curve_trace._trace_one, "trace",
+    trace_one = build(curve_trace._trace_one, "trace", entry=True,
                       sample=build(curve_trace._sample, "trace_sample"))
-    return CurveKernel(build(_run_tiles, "tiles"), trace_one)
+    return CurveKernel(build(_run_tiles, "tiles", entry=True), trace_one)

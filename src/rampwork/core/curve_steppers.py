@@ -43,7 +43,7 @@ FRICTION = True
 DRAG_LINEAR = DRAG_QUADRATIC = DRAG = False
 
 
-@jit
+@jit(internal=True)
 def normal_along_n(u, cos_phi, kappa, g):
     """nu = kappa u^2 + g cos phi.  At u = 0 exactly it is g cos phi: at the
     cycloid's cusp the curvature is infinite and inf * 0 would be NaN."""
@@ -51,7 +51,7 @@ def normal_along_n(u, cos_phi, kappa, g):
     return fma(g, cos_phi, centripetal if u != 0.0 else 0.0)
 
 
-@jit
+@jit(internal=True)
 def _counts(coefficient):
     """1.0 where a work integral's coefficient is nonzero, else 0.0.  The
     error norm's RMS counts a work integral (and the friction terms exist)
@@ -70,7 +70,7 @@ C_DOPRI5 = (0.2, 0.3, 0.8, 8.0 / 9.0)
                                               sum(A7), sum(A8), sum(A9), sum(A10), sum(A11))
 
 
-@jit
+@jit(internal=True)
 def nu_range(x0, y0, x1, y1, x2, y2, low, high):
     """``(low, high)`` widened by what three stages' values say of nu over
     [x0, x2] (x0 < x1 < x2, fractions of the step): the values, and 0 where
@@ -279,7 +279,7 @@ def _dop853_stages(p, u, q, d, h, g, s0, s1, s2, s3, shared, b, c, frame):
             nu_low, nu_high)
 
 
-@jit
+@jit(internal=True)
 def _dop853_nu_range(n1, n2, n3, n4, n5, n6, n7, n8, n9, n10, n11):
     """The range of nu over DOP853's stages 1..11 (c from 0 to 0.857), with
     :func:`nu_range`'s parabolas over the two wide gaps between them (c =

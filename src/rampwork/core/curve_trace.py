@@ -20,7 +20,7 @@ import numpy as np
 from . import status as st
 from .curve_kernel import (BRANCH, COSNOW, DRAGW, G, I_M, INROW, KAPNOW, LANES, N_FIELDS, O_P,
                            O_T, O_U, O_W, O_WD, O_X, O_Y, OUTPUTS, P, S0, S1, S2, STATUS, STEPS,
-                           T, U, WORK)
+                           T, U, WORK, field)
 from .curve_steppers import normal_along_n
 
 # bound per scene by curve_lanes.build_curve_kernel
@@ -37,19 +37,19 @@ N_OUTPUTS = len(OUTPUTS)
 
 def _sample(lanes, shared, side, m, trace, k):
     """Lane 0's state into column k of ``trace``."""
-    p = lanes[P * LANES]
-    u = lanes[U * LANES]
-    x, y = curve_point(p, lanes[S0 * LANES], lanes[S1 * LANES], lanes[S2 * LANES],
-                       lanes[BRANCH * LANES], shared)
-    trace[R_T, k] = lanes[T * LANES]
+    p = field(lanes, P, 0)
+    u = field(lanes, U, 0)
+    x, y = curve_point(p, field(lanes, S0, 0), field(lanes, S1, 0), field(lanes, S2, 0),
+                       field(lanes, BRANCH, 0), shared)
+    trace[R_T, k] = field(lanes, T, 0)
     trace[R_P, k] = p
     trace[R_U, k] = u
     trace[R_X, k] = x
     trace[R_Y, k] = y
-    trace[R_W, k] = m * lanes[WORK * LANES]
-    trace[R_NU, k] = m * (side * normal_along_n(u, lanes[COSNOW * LANES], lanes[KAPNOW * LANES],
-                                                lanes[G * LANES]))
-    trace[R_WD, k] = m * lanes[DRAGW * LANES] if DRAG else 0.0
+    trace[R_W, k] = m * field(lanes, WORK, 0)
+    trace[R_NU, k] = m * (side * normal_along_n(u, field(lanes, COSNOW, 0),
+                                                field(lanes, KAPNOW, 0), field(lanes, G, 0)))
+    trace[R_WD, k] = m * field(lanes, DRAGW, 0) if DRAG else 0.0
 
 
 def _trace_one(j, inputs, shared, h, t_max, side, rtol, atol, every, trace):
@@ -64,13 +64,13 @@ def _trace_one(j, inputs, shared, h, t_max, side, rtol, atol, every, trace):
     start_lane(lanes, 0, inputs, j, shared, h, side)
     sample(lanes, shared, side, m, trace, 0)
     count = 1
-    while lanes[STATUS * LANES] == st.NOT_RUN:
-        before = lanes[STEPS * LANES]
+    while field(lanes, STATUS, 0) == st.NOT_RUN:
+        before = field(lanes, STEPS, 0)
         iterate(lanes, 0, shared, t_max, side, rtol, atol)
-        steps = lanes[STEPS * LANES]
-        if lanes[STATUS * LANES] != st.NOT_RUN or not steps > before:
+        steps = field(lanes, STEPS, 0)
+        if field(lanes, STATUS, 0) != st.NOT_RUN or not steps > before:
             continue  # the end (sampled below) or a rejected attempt
-        event = lanes[INROW * LANES] != 0.0
+        event = field(lanes, INROW, 0) != 0.0
         if count < max_samples - 1 and (event or np.int64(steps) % every == 0):
             sample(lanes, shared, side, m, trace, count)
             count += 1

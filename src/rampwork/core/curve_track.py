@@ -81,7 +81,7 @@ def track_row(p0, shared):
     return start, _whole(read(shared, start), _SHIFT)
 
 
-@jit
+@jit(internal=True, refcount=False)
 def joints_behind(p, d, shared, first, count):
     """The joints ``shared[first:first + count]`` (sorted) behind p for a
     step in direction d: those < p, and one == p when d > 0 (a step from a
@@ -100,7 +100,7 @@ def joints_behind(p, d, shared, first, count):
     return lo
 
 
-@jit
+@jit(internal=True, refcount=False)
 def branch_near(p, d, shared, first, count, s3):
     """``(s3, ahead)`` as curve_kernel.branch, for any number of joints:
     ``s3`` (1 + the joints behind) from the last step's ``s3``, which is off

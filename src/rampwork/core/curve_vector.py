@@ -30,8 +30,9 @@ from . import status as st
 from .control import ERROR_FLOOR
 from .curve_kernel import (  # the lane layout
     B, BRANCH, C, COSNOW, CURV, D, DISP, DPDSNOW, DRAGW, EPREV, EVENT, FLAG, G, HI, HN, INROW,
-    JOINT, JOINT2, KAPNOW, LANES, LO, MANY_JOINTS, MUK, NREJ, NUMIN, P, PATH, PATHX, REJB, S0,
+    JOINT, JOINT2, KAPNOW, LO, MANY_JOINTS, MUK, NREJ, NUMIN, P, PATH, PATHX, REJB, S0,
     S1, S2, SINNOW, SMALLEST_STEP, SN, STATUS, STEPS, T, U, WORK, XNOW, branch, fresh)
+from .curve_fields import field, set_field
 from .curve_steppers import normal_along_n
 from .curve_track import branch_near
 
@@ -63,49 +64,50 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
     clean, committed by selects (see the module docstring); otherwise FLAG
     is set and nothing else changes.  The loop is here, not in the caller
     (a step this long is not inlined, and a loop that calls it stays
-    scalar), on a view from lane ``first`` on: LLVM sees its indices
-    nonnegative, so there is no wraparound to keep it from vectorising."""
+    scalar), on a view from lane ``first`` on, its fields loaded and stored
+    through curve_fields (constant offsets from the view, no wraparound code
+    to keep it from vectorising)."""
     lanes = all_lanes[first:]
     for i in range(BLOCK):
-        running = lanes[STATUS * LANES + i] == st.NOT_RUN
-        free = running & (lanes[FLAG * LANES + i] == 0.0)
-        p = lanes[P * LANES + i]
-        u = lanes[U * LANES + i]
-        d = lanes[D * LANES + i]
-        sn = lanes[SN * LANES + i]
-        t = lanes[T * LANES + i]
-        h_next = lanes[HN * LANES + i]
-        g = lanes[G * LANES + i]
-        s0 = lanes[S0 * LANES + i]
-        s1 = lanes[S1 * LANES + i]
-        s2 = lanes[S2 * LANES + i]
-        s3 = lanes[BRANCH * LANES + i]
-        p_lo = lanes[LO * LANES + i]
-        p_hi = lanes[HI * LANES + i]
-        b = lanes[B * LANES + i]
-        c = lanes[C * LANES + i]
-        joint = lanes[JOINT * LANES + i]
+        running = field(lanes, STATUS, i) == st.NOT_RUN
+        free = running & (field(lanes, FLAG, i) == 0.0)
+        p = field(lanes, P, i)
+        u = field(lanes, U, i)
+        d = field(lanes, D, i)
+        sn = field(lanes, SN, i)
+        t = field(lanes, T, i)
+        h_next = field(lanes, HN, i)
+        g = field(lanes, G, i)
+        s0 = field(lanes, S0, i)
+        s1 = field(lanes, S1, i)
+        s2 = field(lanes, S2, i)
+        s3 = field(lanes, BRANCH, i)
+        p_lo = field(lanes, LO, i)
+        p_hi = field(lanes, HI, i)
+        b = field(lanes, B, i)
+        c = field(lanes, C, i)
+        joint = field(lanes, JOINT, i)
         step_size = h_next if t + h_next <= t_max else t_max - t
-        q = d * lanes[MUK * LANES + i] * sn
+        q = d * field(lanes, MUK, i) * sn
         if JOINTS:
             s3_before = s3
             if JOINTS == MANY_JOINTS:
-                s3, joint = branch_near(p, d, shared, int(joint), int(lanes[JOINT2 * LANES + i]),
+                s3, joint = branch_near(p, d, shared, int(joint), int(field(lanes, JOINT2, i)),
                                         s3)
             elif JOINTS == 2:
-                s3, joint = branch(p, d, joint, lanes[JOINT2 * LANES + i])
+                s3, joint = branch(p, d, joint, field(lanes, JOINT2, i))
             else:  # one joint: the only one a step may cross
                 s3 = branch(p, d, joint, math.nan)[0]
-            lanes[BRANCH * LANES + i] = s3 if free else s3_before
-        sin_now = lanes[SINNOW * LANES + i]
-        cos_now = lanes[COSNOW * LANES + i]
-        kappa_now = lanes[KAPNOW * LANES + i]
-        dp_ds_now = lanes[DPDSNOW * LANES + i]
+            set_field(lanes, BRANCH, i, s3 if free else s3_before)
+        sin_now = field(lanes, SINNOW, i)
+        cos_now = field(lanes, COSNOW, i)
+        kappa_now = field(lanes, KAPNOW, i)
+        dp_ds_now = field(lanes, DPDSNOW, i)
         if JOINTS:  # the frame on the step's own branch, which the last step's end may not be
             frame = curve_frame(p, s0, s1, s2, s3, shared)
         else:
             frame = (sin_now, cos_now, kappa_now, dp_ds_now)
-        event = (lanes[EVENT * LANES + i] != 0.0) if LANE_EVENTS else False  # (never set without)
+        event = (field(lanes, EVENT, i) != 0.0) if LANE_EVENTS else False  # (never set without)
         locating = free & event
         if LANE_EVENTS:  # a locating lane's step: its bracket's next trial
             step_size = lane_trial(lanes, i, locating, step_size, p, d, sn, p_lo, p_hi, joint)
@@ -125,7 +127,7 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
             p_end = min(max(p1, p_lo), p_hi)
             p_end = p_end if p_end == p_end else p_lo
             x1, _ = curve_point(p_end, s0, s1, s2, s3, shared)
-        x_now = lanes[XNOW * LANES + i]
+        x_now = field(lanes, XNOW, i)
         # finite: one sum for four isfinite tests (inf or NaN anywhere makes it
         # so; an overflow of finite terms only sends the step to the scalar
         # code, which takes it the same); nu may be +-inf at a cusp, not NaN
@@ -141,13 +143,13 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
             h_rejected = step_size * rejected_factor(err)
             rejected = (attempt & (not accepted) & (err == err)
                         & (h_rejected > SMALLEST_STEP * max(t, 1.0)))
-            rejected_before = lanes[REJB * LANES + i]
-            error_previous = lanes[EPREV * LANES + i]
+            rejected_before = field(lanes, REJB, i)
+            error_previous = field(lanes, EPREV, i)
             h_accepted = step_size * accepted_factor(err, error_previous, rejected_before != 0.0)
-            lanes[HN * LANES + i] = h_accepted if fast else (h_rejected if rejected else h_next)
-            lanes[EPREV * LANES + i] = max(err, ERROR_FLOOR) if fast else error_previous
-            lanes[REJB * LANES + i] = 0.0 if fast else (1.0 if rejected else rejected_before)
-            lanes[NREJ * LANES + i] += 1.0 if rejected else 0.0
+            set_field(lanes, HN, i, h_accepted if fast else (h_rejected if rejected else h_next))
+            set_field(lanes, EPREV, i, max(err, ERROR_FLOOR) if fast else error_previous)
+            set_field(lanes, REJB, i, 0.0 if fast else (1.0 if rejected else rejected_before))
+            set_field(lanes, NREJ, i, field(lanes, NREJ, i) + (1.0 if rejected else 0.0))
             frozen = running & (not fast) & (not rejected)
         else:
             frozen = running & (not fast)
@@ -156,29 +158,29 @@ def _vector_step(all_lanes, first, shared, t_max, side, rtol, atol):
             closed = ce.lane_bracket(lanes, i, locating, begins, clean, step_size, p1, u1, nu1, p,
                                      u, normal_along_n(u, frame[1], frame[2], g))
             frozen = frozen & (closed | (not (locating | begins)))
-        lanes[FLAG * LANES + i] = 1.0 if frozen else 0.0
-        lanes[P * LANES + i] = p1 if fast else p
-        lanes[U * LANES + i] = u1 if fast else u
-        lanes[T * LANES + i] = t + step_size if fast else t
-        lanes[STEPS * LANES + i] += 1.0 if fast else 0.0
-        lanes[INROW * LANES + i] = 0.0 if fast else lanes[INROW * LANES + i]
-        work = lanes[WORK * LANES + i]
-        lanes[WORK * LANES + i] = work + dw if fast else work
-        curvature = lanes[CURV * LANES + i]
-        lanes[CURV * LANES + i] = curvature + dk if fast else curvature
-        displacement = lanes[DISP * LANES + i]
-        lanes[DISP * LANES + i] = displacement + dx if fast else displacement
-        path = lanes[PATH * LANES + i]
-        lanes[PATH * LANES + i] = path + d * dx if fast else path
+        set_field(lanes, FLAG, i, 1.0 if frozen else 0.0)
+        set_field(lanes, P, i, p1 if fast else p)
+        set_field(lanes, U, i, u1 if fast else u)
+        set_field(lanes, T, i, t + step_size if fast else t)
+        set_field(lanes, STEPS, i, field(lanes, STEPS, i) + (1.0 if fast else 0.0))
+        set_field(lanes, INROW, i, 0.0 if fast else field(lanes, INROW, i))
+        work = field(lanes, WORK, i)
+        set_field(lanes, WORK, i, work + dw if fast else work)
+        curvature = field(lanes, CURV, i)
+        set_field(lanes, CURV, i, curvature + dk if fast else curvature)
+        displacement = field(lanes, DISP, i)
+        set_field(lanes, DISP, i, displacement + dx if fast else displacement)
+        path = field(lanes, PATH, i)
+        set_field(lanes, PATH, i, path + d * dx if fast else path)
         if DRAG:
-            drag_work = lanes[DRAGW * LANES + i]
-            lanes[DRAGW * LANES + i] = drag_work + dwd if fast else drag_work
-        nu_min = lanes[NUMIN * LANES + i]
-        lanes[NUMIN * LANES + i] = min(nu_min, side * nu1) if fast else nu_min
-        path_x = lanes[PATHX * LANES + i]
-        lanes[PATHX * LANES + i] = path_x + abs(x1 - x_now) if fast else path_x
-        lanes[XNOW * LANES + i] = x1 if fast else x_now
-        lanes[SINNOW * LANES + i] = sin1 if fast else sin_now
-        lanes[COSNOW * LANES + i] = cos1 if fast else cos_now
-        lanes[KAPNOW * LANES + i] = kappa1 if fast else kappa_now
-        lanes[DPDSNOW * LANES + i] = dp_ds1 if fast else dp_ds_now
+            drag_work = field(lanes, DRAGW, i)
+            set_field(lanes, DRAGW, i, drag_work + dwd if fast else drag_work)
+        nu_min = field(lanes, NUMIN, i)
+        set_field(lanes, NUMIN, i, min(nu_min, side * nu1) if fast else nu_min)
+        path_x = field(lanes, PATHX, i)
+        set_field(lanes, PATHX, i, path_x + abs(x1 - x_now) if fast else path_x)
+        set_field(lanes, XNOW, i, x1 if fast else x_now)
+        set_field(lanes, SINNOW, i, sin1 if fast else sin_now)
+        set_field(lanes, COSNOW, i, cos1 if fast else cos_now)
+        set_field(lanes, KAPNOW, i, kappa1 if fast else kappa_now)
+        set_field(lanes, DPDSNOW, i, dp_ds1 if fast else dp_ds_now)

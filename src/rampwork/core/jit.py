@@ -175,11 +175,16 @@ INTERNAL_OPTIONS = dict(no_cpython_wrapper=True, no_cfunc_wrapper=True,
                         pipeline_class=_LinkOnlyCompiler, cache=False)
 
 
-def jit(function=None, *, internal: bool = False, **overrides):
+def jit(function=None, *, internal: bool = False, refcount: bool = True, **overrides):
     """``numba.njit`` with the project's options (usable bare or with
     overrides); ``internal=True`` for a function that only jitted code calls
-    (:data:`INTERNAL_OPTIONS`)."""
+    (:data:`INTERNAL_OPTIONS`); ``refcount=False`` for one that allocates
+    nothing: compiled without numba's reference counting, so a call that
+    passes an array does no atomic incref/decref pair (in a lane loop they
+    cost more than the arithmetic, and keep it from vectorising)."""
     options = {**JIT_OPTIONS, **overrides, **(INTERNAL_OPTIONS if internal else {})}
+    if not refcount:
+        options["_nrt"] = False
     if function is None:
         return lambda f: numba.njit(**options)(f)
     return numba.njit(**options)(function)
