@@ -910,7 +910,9 @@ def test_two_sided_switches_keep_their_step_size(method, reference):
         np.testing.assert_allclose(ds[name].values, ref[name], rtol=1e-6, atol=1e-6, err_msg=name)
 
 
-def test_attempts_per_block_change_nothing_and_must_be_even():
+# 6 attempts (a kernel variant of its own) in the slow suite
+@pytest.mark.parametrize("attempts", [2, pytest.param(6, marks=pytest.mark.slow)])
+def test_attempts_per_block_change_nothing_and_must_be_even(attempts):
     """Attempts alternate between the two banks of the lane state, and a
     frozen lane's repeated attempts change nothing: 2 or 6 attempts between
     scans give the bits of the default 4 (t_max 0.4 s ends some trajectories
@@ -929,7 +931,7 @@ def test_attempts_per_block_change_nothing_and_must_be_even():
     inputs = runner.chunk_inputs(plan, 0, plan.size)
     spec = scene.ramp.spec
     results = []
-    for substeps in (4, 2, 6):
+    for substeps in (4, attempts):
         run_batch, _ = K.build_kernel(KernelVariant(spec.key, "dopri5", substeps=substeps),
                                       spec.height, spec.slope_curvature)
         out = np.zeros((K.N_OUTPUTS, plan.size))

@@ -297,7 +297,9 @@ def test_no_friction_branch_when_mu_is_zero_changes_nothing(method):
             assert LIFTED_OFF in statuses
 
 
-@pytest.mark.parametrize("method", [pytest.param("euler", marks=pytest.mark.slow), "rk4", "dopri5",
+# (each case builds two kernels: RK4 in the default run, the others slow)
+@pytest.mark.parametrize("method", [pytest.param("euler", marks=pytest.mark.slow), "rk4",
+                                    pytest.param("dopri5", marks=pytest.mark.slow),
                                     pytest.param("dop853", marks=pytest.mark.slow)])
 def test_uniform_parameters_in_registers_change_nothing(method):
     """g and the ramp's shape not swept: the lane loops take them from the
