@@ -152,7 +152,7 @@ def build_switches(families, *, cache: bool = True):
                          f"got {len(families)}")
     padded = families + families[:1] * (MAX_FAMILIES - len(families))
     name = "_".join(key for key, *_ in families)
-    internal = {"internal": True, "_nrt": False}
+    internal = {"internal": True, "refcount": False}
     switches = []
     for part, label in ((1, "height"), (2, "slope_curvature")):
         constants = {"SHARED_HEADER": SHARED_HEADER,

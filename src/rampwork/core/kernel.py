@@ -141,7 +141,7 @@ def build_kernel(variant: KernelVariant, ramp_height_fn, ramp_slope_curvature_fn
     # atomic incref/decref pairs, which cost more than the event arithmetic
     # itself (measured: 20-25 % of the whole run on an event-rich sweep).
     internal = {"internal": True}
-    no_refcount = {"_nrt": False, **internal}
+    no_refcount = {"refcount": False, **internal}
     add("runtime_flags", general._copy_runtime_flags if variant.runtime
         else general._no_runtime_flags, **no_refcount)
     add("lane_parameters", parameters._lane_parameters, **no_refcount)

@@ -45,7 +45,7 @@ def _grid_blocks(first_block, stop_block, start, lengths, values, out):
             _grid_point(start, i, n_axes, lengths, values, out)
 
 
-@jit(_nrt=False)  # no reference counting of the arrays per call
+@jit(refcount=False)  # no reference counting of the arrays per call
 def _grid_point(start, i, n_axes, lengths, values, out):
     """Column i of :func:`grid_columns`."""
     rest = start + i
@@ -84,7 +84,7 @@ def _reduce_blocks(first_block, stop_block, raw, x0, mu_k, g, mass, status, t_en
                         steps_rejected, w_friction_error_estimate, w_drag, with_drag)
 
 
-@jit(_nrt=False)
+@jit(refcount=False)
 def _reduce_one(i, raw, x0, mu_k, g, mass, status, t_end, x_end, v_end, w_friction, w_energy,
                 w_linear, w_excess, w_path, energy_balance_error, convexity_mean, path_length_x,
                 n_reversals, x_lift_off, x_lift_off_paper, steps, steps_rejected,
