@@ -256,7 +256,14 @@ _OPTIONAL_OUTPUTS = tuple(name for name, spec in schema.OUTPUTS.items() if spec.
 
 def tile_size(n: int, threads: int) -> int:
     """Trajectories per tile: enough tiles for every thread to stay busy
-    (dynamic scheduling), each big enough to keep its lanes full."""
+    (dynamic scheduling), each big enough to keep its lanes full.  One
+    thread needs no balance: as few tiles as the cap allows, of equal size,
+    because each tile ends in a tail where its last, longest trajectories
+    run with most lanes empty (2 tiles instead of 8 on benchmarks/families.py's
+    grid: the general tier 1.11-1.15x faster, dopri5 1.07-1.17x; results are
+    the same bits whatever the tiles; benchmarks/README.md, sixth pass)."""
+    if max(threads, 1) == 1:
+        return int(max(1, math.ceil(n / math.ceil(max(n, 1) / 16384))))
     target = math.ceil(n / (8 * max(threads, 1)))
     return int(min(16384, max(4 * 64, target)))
 

@@ -58,8 +58,8 @@ from .steppers import ADAPTIVE_STEPPERS, STEPPERS
 #: runs: quadratic 1.18-1.22x, sine 1.05x, circular bowl 0.99-1.02x, spline
 #: 1.05-1.11x).  Not the cycloid (9x slower split while every stage solved
 #: for its parameter by Newton; with its short stage form level, 2.64e8
-#: against 2.66e8 steps/s, so left as it was) nor user callables (not
-#: measured)
+#: against 2.66e8 steps/s, so left as it was; split again 2026-11-28: 0.90x,
+#: benchmarks/README.md's sixth pass) nor user callables (not measured)
 SPLIT_STEP_FAMILIES = frozenset((
     ramps.straight_slope_curvature, ramps.quadratic_slope_curvature,
     ramps.circular_bowl_slope_curvature, ramps.circular_dome_slope_curvature,

@@ -98,6 +98,14 @@ EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOU
 #: waits for the next pass, so fewer, costlier steps want more frequent passes
 N_SUBSTEPS = 16
 N_SUBSTEPS_ADAPTIVE = 4
+#: lanes per block of the fixed-step kernels that the plan builds
+#: (``plan.py``; KernelVariant's default, 64, elsewhere): a lane loop with two
+#: chains steps every lane of the block, busy or not, so a tile's tail (its
+#: last, longest trajectories) steps half as many empty lanes as with 64;
+#: measured equal on identical trajectories, faster on the grid of
+#: benchmarks/families.py (with runner.tile_size's one tile per thread,
+#: 1.08-1.16x; benchmarks/README.md, vmath/families, sixth pass)
+FIXED_STEP_LANES = 32
 #: lanes per iteration of the vectorised loop (8 float64 in 512 bits, two
 #: iterations interleaved): the tail of a tile steps whole blocks of this many
 VECTOR_BLOCK = 16
