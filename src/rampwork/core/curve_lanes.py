@@ -300,8 +300,13 @@ def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
     vector loop, optimised inside the kernel's module, from vectorising:
     4-7x slower).  ``shared``: one per process for the constants its code
     reads (a step's stages serve every family with the same effects, the
-    rest rule every method, ...), named by their values, so a kernel
-    compiles only the helpers no kernel before it needed."""
+    rest rule every method, ...), named by the template and those values,
+    so a kernel compiles only the helpers no kernel before it needed.  The
+    name must differ wherever the code does: a kernel loaded from numba's
+    cache brings its helpers' symbols, and a helper compiled later under the
+    same name would link to those (two steps that read the same constants,
+    Euler's and semi-implicit Euler's, once gave one method the other's
+    results; tests/test_curve_helpers.py)."""
     if not shared:
         return specialise(template, f"{name}_{suffix}", dict(constants), internal=True,
                           refcount=False)
@@ -309,8 +314,9 @@ def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
                         if k in constants))
     key = (template, used)
     if key not in _HELPERS:
-        label = repr([(k, getattr(getattr(v, "py_func", None), "__qualname__", v))
-                      for k, v in used])
+        label = repr([f"{template.__module__}.{template.__qualname__}"]
+                     + [(k, getattr(getattr(v, "py_func", None), "__qualname__", v))
+                        for k, v in used])
         digest = hashlib.sha256(label.encode()).hexdigest()[:12]
         _HELPERS[key] = specialise(template, f"curve_{suffix}_{digest}", dict(constants),
                                    internal=True, refcount=False)
