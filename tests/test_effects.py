@@ -155,7 +155,10 @@ def _dome_slope(x):
     return -x / np.sqrt(1.0 - x * x)
 
 
-@pytest.mark.parametrize("integrator", [rw.Integrator("rk4", 1e-3), rw.Integrator("dopri5", rtol=1e-9)],
+# the fixed steps' criterion in the slow suite: the default one locates it
+# with Euler on a bowl (test_paper_criterion_located_on_a_bowl)
+@pytest.mark.parametrize("integrator", [pytest.param(rw.Integrator("rk4", 1e-3), marks=pytest.mark.slow),
+                                        rw.Integrator("dopri5", rtol=1e-9)],
                          ids=["rk4", "dopri5"])
 def test_paper_criterion_equals_contact_force_without_friction(integrator):
     """With mu_k = 0, y'' + g = n / (1 + f'^2): both criteria are one."""

@@ -18,7 +18,6 @@ import numpy as np
 from . import schema
 from .core import kernel as K
 from .core import reduce
-from .core.layout import FIXED_STEP_LANES
 from .core.steppers import STEPPERS as FIXED_STEP_METHODS
 from .core.variant import CLOSED_FORM, KernelVariant
 from .errors import ClosedFormNotice, ConfigError, option, warn
@@ -192,9 +191,7 @@ def _plan(scene: Scene, sweep: Sweep, checked: Sweep) -> RunPlan:
         # g and the ramp's shape the same for every trajectory (not swept)
         uniform_parameters=not any(name in sweep.names
                                    for name in ("g",) + spec.parameter_names),
-        short_stages=short_stages, project_energy=scene.integrator.project_energy,
-        # fixed steps: smaller blocks, a tile's tail steps fewer empty lanes
-        **({"lanes": FIXED_STEP_LANES} if method in FIXED_STEP_METHODS else {}))
+        short_stages=short_stages, project_energy=scene.integrator.project_energy)
     return RunPlan(scene, sweep, sweep.shape, size, variant)
 
 

@@ -98,8 +98,10 @@ EV_NONE, EV_DIVERGED, EV_EXIT_LO, EV_EXIT_HI, EV_CONTACT, EV_REVERSAL, EV_TIMEOU
 #: waits for the next pass, so fewer, costlier steps want more frequent passes
 N_SUBSTEPS = 16
 N_SUBSTEPS_ADAPTIVE = 4
-#: lanes per block of the fixed-step kernels that the plan builds
-#: (``plan.py``; KernelVariant's default, 64, elsewhere): a lane loop with two
+#: lanes per block: the adaptive pairs' and the general kernels'
+DEFAULT_LANES = 64
+#: lanes per block of the specialised fixed-step kernels (KernelVariant's
+#: default for them; DEFAULT_LANES elsewhere): a lane loop with two
 #: chains steps every lane of the block, busy or not, so a tile's tail (its
 #: last, longest trajectories) steps half as many empty lanes as with 64;
 #: measured equal on identical trajectories, faster on the grid of

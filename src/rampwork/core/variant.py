@@ -14,7 +14,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from .layout import N_SUBSTEPS, N_SUBSTEPS_ADAPTIVE, VECTOR_BLOCK
+from .layout import (DEFAULT_LANES, FIXED_STEP_LANES, N_SUBSTEPS, N_SUBSTEPS_ADAPTIVE,
+                     VECTOR_BLOCK)
 from .general import MAXIMAL
 from .steppers import ADAPTIVE_STEPPERS, METHODS
 
@@ -49,7 +50,9 @@ class KernelVariant:
     balance, ``adaptive._project_energy``).  Tuning knobs that do not
     change results: ``lanes`` per block, ``substeps`` between scalar
     passes (default by method kind), ``chains`` (lane-loop halves side by
-    side), ``unroll`` (fixed steps per lane visit).
+    side), ``unroll`` (fixed steps per lane visit).  ``lanes`` defaults to
+    ``layout.FIXED_STEP_LANES`` for a specialised fixed-step kernel and to
+    ``DEFAULT_LANES`` for the adaptive pairs and the general kernels.
 
     ``runtime``: the general kernel of a kind (``general.py``): family
     :data:`ANY_FAMILY`, method :data:`ANY_FIXED_STEP` or an adaptive pair,
@@ -69,7 +72,7 @@ class KernelVariant:
     uniform_parameters: bool = False
     short_stages: bool = False
     project_energy: bool = True
-    lanes: int = 64
+    lanes: int | None = None
     substeps: int | None = None
     chains: int = 2
     unroll: int = 1
@@ -109,6 +112,9 @@ class KernelVariant:
         if self.substeps is None:
             object.__setattr__(self, "substeps",
                                N_SUBSTEPS_ADAPTIVE if self.adaptive else N_SUBSTEPS)
+        if self.lanes is None:  # the specialised fixed-step kernels' smaller blocks
+            object.__setattr__(self, "lanes", FIXED_STEP_LANES
+                               if not (self.adaptive or self.runtime) else DEFAULT_LANES)
         if self.lanes % VECTOR_BLOCK or self.lanes < VECTOR_BLOCK:
             raise ValueError(f"lanes ({self.lanes}) must be a positive multiple of {VECTOR_BLOCK}")
         if self.chains not in (1, 2):
