@@ -292,6 +292,11 @@ def _names_read(code) -> set:
     return names
 
 
+def _function_name(function) -> str:
+    """Module and qualified name: what tells one function's code from another's."""
+    return f"{function.__module__}.{function.__qualname__}"
+
+
 def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
     """``template`` specialised on ``constants`` as a helper only jitted code
     calls: link-only (jit.INTERNAL_OPTIONS), compiled into the kernels'
@@ -314,8 +319,8 @@ def _helper(template, name: str, suffix: str, constants: dict, *, shared: bool):
                         if k in constants))
     key = (template, used)
     if key not in _HELPERS:
-        label = repr([f"{template.__module__}.{template.__qualname__}"]
-                     + [(k, getattr(getattr(v, "py_func", None), "__qualname__", v))
+        label = repr([_function_name(template)]
+                     + [(k, _function_name(v.py_func) if hasattr(v, "py_func") else v)
                         for k, v in used])
         digest = hashlib.sha256(label.encode()).hexdigest()[:12]
         _HELPERS[key] = specialise(template, f"curve_{suffix}_{digest}", dict(constants),
